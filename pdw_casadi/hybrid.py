@@ -1,0 +1,255 @@
+"""Phases, guards and transitions of a hybrid walker, as CasADi functions built once.
+
+A walker module (see :mod:`pdw_casadi.walkers`) describes its model symbolically: the
+planar system, its phases (contact set + events + named outputs) and transitions (impact
+contact set + post-impact relabelling). :class:`HybridSystem` turns that description into
+CasADi functions of the integrated state x = [q; qd; W] (W: energy dissipated by dampers, J),
+the parameters p (compliance..., slope) and the mode weights m (0/1 switches such as "knee
+spring engaged"), built once per walker and reused by every simulation, Poincare map and fit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import casadi as ca
+
+from .mechanics.planar import ContactSet, PlanarSystem
+
+GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
+
+Mode = dict[str, float]
+
+
+@dataclass(frozen=True)
+class Event:
+    """A switching surface g(q, qd, p, m) = 0 crossed in ``direction`` (-1 down, +1 up, 0 any).
+
+    ``kind``: GUARD ends the phase, SWITCH changes the walker's mode, FAILURE ends the
+    simulation with this event's name as the reason. ``when(mode)`` enables the event;
+    ``effect(mode, sign)`` returns the new mode (sign = direction of the crossing).
+    ``indicator``: the name of a mode flag that is 1 while g > 0 (re-read from the state at
+    every phase start). ``require``: an expression that must be > 0 when a GUARD is reached,
+    else the step fails with reason ``require_reason``. ``arm_above`` > 0: the event only
+    counts once g has exceeded this value in the phase (a swing toe leaving the ground at
+    toe-off starts at g = 0 and must rise before touching down counts as scuffing).
+    """
+
+    name: str
+    expr: ca.SX
+    direction: int
+    kind: str
+    description: str = ""
+    when: Callable[[Mode], bool] | None = None
+    effect: Callable[[Mode, int], Mode] | None = None
+    indicator: str | None = None
+    require: ca.SX | None = None
+    require_reason: str = ""
+    arm_above: float = 0.0
+
+    def enabled(self, mode: Mode) -> bool:
+        return True if self.when is None else bool(self.when(mode))
+
+
+@dataclass
+class Phase:
+    """One continuous phase: contact set, its dynamics (qdd, multipliers), events, outputs."""
+
+    name: str
+    contact: ContactSet
+    qdd: ca.SX
+    lam: ca.SX
+    events: list[Event] = field(default_factory=list)
+    outputs: dict[str, ca.SX] = field(default_factory=dict)
+
+    @property
+    def guard(self) -> Event:
+        return next(e for e in self.events if e.kind == GUARD)
+
+
+def make_phase(system: PlanarSystem, F_q, name: str, contact: ContactSet) -> Phase:
+    """A phase with its constrained dynamics (eq. 12) solved; add events and outputs after."""
+    qdd, lam = system.constrained_dynamics(contact, F_q)
+    return Phase(name=name, contact=contact, qdd=qdd, lam=lam)
+
+
+@dataclass
+class Transition:
+    """An instantaneous transition at the end of phase ``source`` (impact if ``impact``).
+
+    ``qd_plus``/``impulse`` come from :meth:`PlanarSystem.impact`; ``checks`` are named
+    margins in (q, qd, qd_plus) that must be > 0 for the assumed gait pattern; ``relabel`` =
+    (q_new, qd_new) in terms of (q, qd) maps the post-impact state to the next phase's
+    coordinates (leg swap); ``ends_step`` marks the Poincare section; ``mode_after`` maps
+    the walker's mode across the transition and may return a failure reason instead.
+    """
+
+    name: str
+    source: str
+    target: str
+    qd_plus: ca.SX
+    impulse: ca.SX
+    checks: dict[str, ca.SX] = field(default_factory=dict)
+    relabel: tuple[ca.SX, ca.SX] | None = None
+    ends_step: bool = False
+    mode_after: Callable[[Mode], Mode | str] | None = None
+
+
+def make_transition(system: PlanarSystem, name: str, source: str, target: str,
+                    impact: ContactSet | None, **kw) -> Transition:
+    """A transition; with ``impact`` the post-impact velocities and impulses are solved."""
+    if impact is None:
+        return Transition(name, source, target, system.qd, ca.SX(0, 1), **kw)
+    qd_plus, impulse = system.impact(impact)
+    return Transition(name, source, target, qd_plus, impulse, **kw)
+
+
+@dataclass
+class WalkerModel:
+    """Symbolic description of one walker, produced by a walker module's ``build``.
+
+    ``section_to_full(xs, p) -> x`` and ``full_to_section(x) -> xs`` map the Poincare
+    section state to the integrated state x = [q; qd; W] at the start of the first phase.
+    ``initial_mode`` is the mode at the section; ``mode_keys`` orders the mode vector m.
+    ``step_length`` (q, p) is the distance (m) covered by one step, evaluated just before
+    the section transition.
+    """
+
+    name: str
+    system: PlanarSystem
+    p: ca.SX
+    m: ca.SX
+    mode_keys: tuple[str, ...]
+    initial_mode: Mode
+    F_q: ca.SX
+    spring_energy: ca.SX
+    damping_power: ca.SX
+    phases: list[Phase]
+    transitions: list[Transition]
+    section_to_full: ca.Function
+    full_to_section: ca.Function
+    state_names: tuple[str, ...]
+    parameter_names: tuple[str, ...]
+    step_length: ca.SX
+    common_outputs: dict[str, ca.SX] = field(default_factory=dict)
+    points: dict[str, ca.SX] = field(default_factory=dict)
+    links: list[tuple[str, str]] = field(default_factory=list)
+    ground_normal: ca.SX | None = None
+    q_names: tuple[str, ...] = ()
+
+
+class HybridSystem:
+    """CasADi functions of a walker's phases and transitions, built once and reused."""
+
+    def __init__(self, model: WalkerModel, chunk_size: int = 32):
+        self.model = model
+        sysm = model.system
+        q, qd, p, m = sysm.q, sysm.qd, model.p, model.m
+        self.nq = q.shape[0]
+        self.nx = 2 * self.nq + 1
+        self.np = p.shape[0]
+        self.nm = m.shape[0]
+        self.mode_keys = model.mode_keys
+        x = ca.SX.sym("x", self.nx)
+        h = ca.SX.sym("h")
+        self.chunk_size = chunk_size
+        self.phase_names = [ph.name for ph in model.phases]
+        self.phases = {ph.name: ph for ph in model.phases}
+        self.rhs, self.step, self.events, self.chunk, self.locate = {}, {}, {}, {}, {}
+        self.outputs, self.output_names, self.event_list = {}, {}, {}
+        self.step_jac, self.event_jac, self.require = {}, {}, {}
+
+        def subs_x(expr):
+            return ca.substitute(expr, ca.vertcat(q, qd), x[: 2 * self.nq])
+
+        self.subs_x = subs_x
+        self.x_sym = x
+        for ph in model.phases:
+            xdot = subs_x(ca.vertcat(qd, ph.qdd, model.damping_power))
+            rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"])
+            k1 = rhs(x, p, m)
+            k2 = rhs(x + h / 2 * k1, p, m)
+            k3 = rhs(x + h / 2 * k2, p, m)
+            k4 = rhs(x + h * k3, p, m)
+            x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
+                               ["x", "h", "p", "m"], ["xf"])
+            g = subs_x(ca.vertcat(*[e.expr for e in ph.events]))
+            events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"])
+            req = subs_x(ca.vertcat(*[e.require if e.require is not None else ca.SX(1.0)
+                                      for e in ph.events]))
+            self.require[ph.name] = ca.Function(f"require_{ph.name}", [x, p, m], [req])
+            tau = ca.SX.sym("tau")
+            x_tau = step(x, tau, p, m)
+            g_tau = events(x_tau, p, m)
+            locate = ca.Function(f"locate_{ph.name}", [x, tau, p, m],
+                                 [g_tau, ca.jacobian(g_tau, tau), x_tau])
+            outs = {**model.common_outputs, **ph.outputs}
+            out_vec = subs_x(ca.vertcat(*outs.values()))
+            self.outputs[ph.name] = ca.Function(f"outputs_{ph.name}", [x, p, m], [out_vec])
+            self.output_names[ph.name] = list(outs)
+            # K steps per call: the simulator's hot loop calls this, not the single step
+            acc = step.mapaccum(f"acc_{ph.name}", chunk_size, ["x"], ["xf"])
+            X0 = ca.MX.sym("x0", self.nx)
+            hh, pp, mm = ca.MX.sym("h"), ca.MX.sym("p", self.np), ca.MX.sym("m", self.nm)
+            X = acc(X0, hh, pp, mm)
+            G = events.map(chunk_size)(X, pp, mm)
+            self.chunk[ph.name] = ca.Function(f"chunk_{ph.name}", [X0, hh, pp, mm], [X, G])
+            # exact derivatives of the discrete map: one step and the event functions
+            self.step_jac[ph.name] = ca.Function(
+                f"step_jac_{ph.name}", [x, h, p, m],
+                [x_next, ca.jacobian(x_next, x), ca.jacobian(x_next, p), ca.jacobian(x_next, h)])
+            self.event_jac[ph.name] = ca.Function(
+                f"event_jac_{ph.name}", [x, p, m], [g, ca.jacobian(g, x), ca.jacobian(g, p)])
+            self.rhs[ph.name], self.step[ph.name] = rhs, step
+            self.events[ph.name], self.locate[ph.name] = events, locate
+            self.event_list[ph.name] = ph.events
+
+        self.impact, self.impact_jac = {}, {}
+        self.transitions = {tr.source: tr for tr in model.transitions}
+        for tr in model.transitions:
+            chk = ca.vertcat(*tr.checks.values()) if tr.checks else ca.SX(0, 1)
+            q_new, qd_new = q, tr.qd_plus
+            if tr.relabel is not None:
+                q_new = tr.relabel[0]
+                qd_new = ca.substitute(tr.relabel[1], qd, tr.qd_plus)
+            x_plus = subs_x(ca.vertcat(q_new, qd_new, 0)) + ca.vertcat(
+                ca.SX(2 * self.nq, 1), x[-1])
+            # x_post: post-impact state before relabelling (same frame, for energy balances)
+            x_post = subs_x(ca.vertcat(q, tr.qd_plus)) 
+            x_post = ca.vertcat(x_post, x[-1])
+            self.impact[tr.name] = ca.Function(
+                f"impact_{tr.name}", [x, p],
+                [x_plus, subs_x(tr.impulse), subs_x(chk), x_post],
+                ["x", "p"], ["x_plus", "impulse", "checks", "x_post"])
+            self.impact_jac[tr.name] = ca.Function(
+                f"impact_jac_{tr.name}", [x, p],
+                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)])
+        self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
+        e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
+        self.energy = ca.Function("energy", [x, p, m], [e], ["x", "p", "m"], ["E"])
+        self.step_length = ca.Function("step_length", [x, p], [subs_x(model.step_length)])
+        self.points = ca.Function(
+            "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
+        self.point_names = list(model.points)
+
+    # -- mode helpers -------------------------------------------------------------------
+    def mode_vector(self, mode: Mode) -> list[float]:
+        return [float(mode[k]) for k in self.mode_keys]
+
+    def refresh_indicators(self, phase: str, x, p, mode: Mode, skip: int | None = None) -> Mode:
+        """Mode flags that mirror the sign of an event function, read from the state.
+
+        ``skip``: index of an event located at this very state (its value is ~0, so its
+        sign is noise; its flag was set from the crossing direction instead).
+        """
+        evs = self.event_list[phase]
+        if not any(e.indicator for e in evs):
+            return mode
+        g = self.events[phase](x, p, self.mode_vector(mode)).full().ravel()
+        mode = dict(mode)
+        for i, (e, gi) in enumerate(zip(evs, g, strict=True)):
+            if e.indicator and i != skip:
+                mode[e.indicator] = 1.0 if gi > 0 else 0.0
+        return mode

@@ -1,0 +1,119 @@
+"""Planar multibody dynamics in absolute coordinates, following eqs. (1)-(12) of the paper.
+
+Bodies are rigid links (mass, inertia about the COM, absolute angle) or point masses. Their
+COM positions and angles, stacked, are the rectangular coordinates r(q); T = dr/dq,
+M_q = T^T M T and F_q = T^T (F - M Tdot qd). Contact sets are holonomic constraint rows
+eps(q) = 0 with Jacobian E; the constrained accelerations and multipliers solve eq. (12),
+and inelastic impacts solve M_q (qd+ - qd-) = E^T Lambda, E qd+ = 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+
+def direction(angle):
+    """Unit vector (sin q, -cos q): proximal-to-distal direction of a link at absolute angle q."""
+    return ca.vertcat(ca.sin(angle), -ca.cos(angle))
+
+
+def cross2(a, b):
+    """z-component of the cross product of two planar vectors."""
+    return a[0] * b[1] - a[1] * b[0]
+
+
+@dataclass(frozen=True)
+class Body:
+    """A rigid link or a point mass.
+
+    ``com`` is its centre of mass (2x1 SX in q), ``angle`` its absolute angle (SX in q) or
+    ``None`` for a point mass; ``mass`` in kg, ``inertia`` about the COM in kg m^2.
+    """
+
+    name: str
+    mass: float
+    inertia: float
+    com: ca.SX
+    angle: ca.SX | None = None
+
+
+@dataclass(frozen=True)
+class ContactSet:
+    """Named holonomic constraint rows eps(q) = 0 (constant offsets do not matter)."""
+
+    name: str
+    rows: ca.SX
+    labels: tuple[str, ...]
+
+
+class PlanarSystem:
+    """Mass matrix, forces and constrained dynamics of a planar chain, all as SX expressions."""
+
+    def __init__(self, q: ca.SX, qd: ca.SX, bodies: list[Body], g: float):
+        self.q, self.qd, self.bodies, self.g = q, qd, bodies, g
+        rows, masses, weights = [], [], []
+        for b in bodies:
+            rows += [b.com[0], b.com[1]]
+            masses += [b.mass, b.mass]
+            weights += [0.0, -b.mass * g]
+            if b.angle is not None:
+                rows.append(b.angle)
+                masses.append(b.inertia)
+                weights.append(0.0)
+        self.r = ca.vertcat(*rows)
+        self.M = ca.DM(masses)
+        self.T = ca.jacobian(self.r, q)
+        self.M_q = ca.mtimes([self.T.T, ca.diag(self.M), self.T])
+        tdot_qd = ca.jtimes(ca.mtimes(self.T, qd), q, qd)
+        self.F_gravity = ca.mtimes(self.T.T, ca.DM(weights))
+        self.F_velocity = -ca.mtimes(self.T.T, self.M * tdot_qd)
+        self.kinetic = 0.5 * ca.mtimes([qd.T, self.M_q, qd])
+        self.potential = sum(b.mass * g * b.com[1] for b in bodies)
+
+    def generalized_torque(self, tau, plus_angle, minus_angle=None):
+        """Generalized force of a torque ``tau`` acting + on one link and - on another."""
+        jac = ca.jacobian(plus_angle, self.q)
+        if minus_angle is not None:
+            jac = jac - ca.jacobian(minus_angle, self.q)
+        return jac.T * tau
+
+    def velocity(self, point):
+        """Velocity (2x1 SX) of a point given as an SX expression in q."""
+        return ca.jtimes(point, self.q, self.qd)
+
+    def angular_momentum(self, names, about):
+        """Angular momentum (kg m^2/s) of the named bodies about a point (SX in q)."""
+        total = 0
+        for b in self.bodies:
+            if b.name not in names:
+                continue
+            total += b.mass * cross2(b.com - about, self.velocity(b.com))
+            if b.angle is not None:
+                total += b.inertia * ca.jtimes(b.angle, self.q, self.qd)
+        return total
+
+    def constraint_jacobian(self, contact: ContactSet):
+        return ca.jacobian(contact.rows, self.q)
+
+    def constrained_dynamics(self, contact: ContactSet | None, F_q):
+        """Solve eq. (12): accelerations qdd and multipliers lambda (forces along the rows)."""
+        n = self.q.shape[0]
+        if contact is None or contact.rows.shape[0] == 0:
+            return ca.solve(self.M_q, F_q), ca.SX(0, 1)
+        E = self.constraint_jacobian(contact)
+        m = E.shape[0]
+        edot_qd = ca.jtimes(ca.mtimes(E, self.qd), self.q, self.qd)
+        kkt = ca.blockcat([[self.M_q, -E.T], [E, ca.SX(m, m)]])
+        sol = ca.solve(kkt, ca.vertcat(F_q, -edot_qd))
+        return sol[:n], sol[n:]
+
+    def impact(self, contact: ContactSet):
+        """Inelastic impact: post-impact velocities and impulses (N s) along the rows."""
+        n = self.q.shape[0]
+        E = self.constraint_jacobian(contact)
+        m = E.shape[0]
+        kkt = ca.blockcat([[self.M_q, -E.T], [E, ca.SX(m, m)]])
+        sol = ca.solve(kkt, ca.vertcat(ca.mtimes(self.M_q, self.qd), ca.SX(m, 1)))
+        return sol[:n], sol[n:]

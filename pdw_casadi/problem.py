@@ -1,0 +1,274 @@
+"""Problem files: what a walker is, as numbers only.
+
+A problem file (TOML) names a walker ``family`` (the module in :mod:`pdw_casadi.walkers` that
+knows its chain, phases and impacts) and gives its anthropometry, compliance, slope, initial
+section state and numerical settings. Loading validates every key and value and raises
+:class:`ProblemError` naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+from .resources import bundled_names, resolve
+
+
+class ProblemError(ValueError):
+    """A problem file or override is invalid (message names the file and key)."""
+
+
+#: numerical settings with their defaults (s, s)
+NUMERICS_DEFAULTS = {"step_size": 5e-4, "max_phase_time": 2.0}
+#: validity margins with their defaults (N, m, m)
+VALIDITY_DEFAULTS = {"min_normal_force": 0.0, "min_clearance": 0.0, "min_cop_margin": 0.0}
+
+_SECTIONS = (
+    "walker", "environment", "anthropometry", "compliance", "compliance_bounds",
+    "initial_state", "numerics", "validity",
+)
+
+
+def _frozen(d: Mapping) -> Mapping:
+    return MappingProxyType(dict(d))
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A validated walker problem. Angles in rad, lengths in m, masses in kg, time in s."""
+
+    name: str
+    family: str
+    title: str
+    g: float
+    slope: float
+    anthropometry: Mapping[str, float]
+    compliance: Mapping[str, float]
+    compliance_bounds: Mapping[str, tuple[float, float]]
+    initial_state: Mapping[str, float]
+    numerics: Mapping[str, float] = field(default_factory=lambda: _frozen(NUMERICS_DEFAULTS))
+    validity: Mapping[str, float] = field(default_factory=lambda: _frozen(VALIDITY_DEFAULTS))
+    source: Path | None = None
+
+    @property
+    def state_names(self) -> list[str]:
+        return list(self.initial_state)
+
+    @property
+    def compliance_names(self) -> list[str]:
+        return list(self.compliance)
+
+    def state_vector(self) -> np.ndarray:
+        """The initial section state in file order."""
+        return np.array(list(self.initial_state.values()), dtype=float)
+
+    def compliance_vector(self) -> np.ndarray:
+        return np.array(list(self.compliance.values()), dtype=float)
+
+    def parameter_vector(self) -> np.ndarray:
+        """Parameters p fed to the CasADi functions: compliance in file order, then slope."""
+        return np.append(self.compliance_vector(), self.slope)
+
+    @property
+    def parameter_names(self) -> list[str]:
+        return [*self.compliance, "slope"]
+
+    def with_parameters(self, p) -> Problem:
+        """A copy with compliance and slope taken from a parameter vector (see parameter_vector)."""
+        p = np.asarray(p, dtype=float).ravel()
+        if p.size != len(self.compliance) + 1:
+            raise ProblemError(f"{self.name}: parameter vector has {p.size} values, "
+                               f"expected {len(self.compliance) + 1}")
+        comp = dict(zip(self.compliance, p[:-1], strict=True))
+        return self.replace(compliance=comp, slope=float(p[-1]))
+
+    def with_state(self, x) -> Problem:
+        """A copy whose initial section state is ``x`` (array in state order, or a mapping)."""
+        if isinstance(x, Mapping):
+            merged = {**self.initial_state, **{k: float(v) for k, v in x.items()}}
+            unknown = set(x) - set(self.initial_state)
+            if unknown:
+                raise ProblemError(f"{self.name}: unknown state key(s) {sorted(unknown)}")
+            return self.replace(initial_state=merged)
+        x = np.asarray(x, dtype=float).ravel()
+        if x.size != len(self.initial_state):
+            raise ProblemError(f"{self.name}: state has {x.size} values, expected "
+                               f"{len(self.initial_state)} ({', '.join(self.initial_state)})")
+        return self.replace(initial_state=dict(zip(self.initial_state, x, strict=True)))
+
+    def replace(self, **changes) -> Problem:
+        """A validated copy with some fields changed (compliance may be given partially)."""
+        if "compliance" in changes:
+            unknown = set(changes["compliance"]) - set(self.compliance)
+            if unknown:
+                raise ProblemError(f"{self.name}: unknown compliance key(s) {sorted(unknown)}; "
+                                   f"known: {', '.join(self.compliance)}")
+            changes["compliance"] = {**self.compliance, **changes["compliance"]}
+        for key in ("anthropometry", "compliance", "initial_state", "numerics", "validity",
+                    "compliance_bounds"):
+            if key in changes:
+                changes[key] = _frozen(changes[key])
+        new = dataclasses.replace(self, **changes)
+        _check_values(new, self.source or Path(self.name))
+        return new
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name, "family": self.family, "title": self.title, "g": self.g,
+            "slope": self.slope, "anthropometry": dict(self.anthropometry),
+            "compliance": dict(self.compliance),
+            "compliance_bounds": {k: list(v) for k, v in self.compliance_bounds.items()},
+            "initial_state": dict(self.initial_state), "numerics": dict(self.numerics),
+            "validity": dict(self.validity),
+        }
+
+
+def _num(where: str, key: str, v) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise ProblemError(f"{where}: '{key}' must be a number, got {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ProblemError(f"{where}: '{key}' must be finite, got {v!r}")
+    return v
+
+
+def _section(raw: Mapping, where: str, name: str, required: list[str],
+             optional: Mapping[str, float] | None = None) -> dict[str, float]:
+    sec = raw.get(name, {} if optional is not None and not required else None)
+    if sec is None:
+        raise ProblemError(f"{where}: missing section [{name}]")
+    if not isinstance(sec, Mapping):
+        raise ProblemError(f"{where}: [{name}] must be a table")
+    allowed = list(required) + list(optional or {})
+    unknown = [k for k in sec if k not in allowed]
+    if unknown:
+        raise ProblemError(f"{where}: unknown key(s) {', '.join(f'{name}.{k}' for k in unknown)}"
+                           f"; allowed: {', '.join(allowed)}")
+    missing = [k for k in required if k not in sec]
+    if missing:
+        raise ProblemError(f"{where}: missing key(s) {', '.join(f'{name}.{k}' for k in missing)}")
+    out = {k: _num(where, f"{name}.{k}", sec[k]) for k in required}
+    for k, default in (optional or {}).items():
+        out[k] = _num(where, f"{name}.{k}", sec.get(k, default))
+    return out
+
+
+def _check_values(pb: Problem, where) -> None:
+    from .walkers import get_family
+
+    fam = get_family(pb.family)
+    for k, v in pb.anthropometry.items():
+        if k in fam.POSITIVE_KEYS and not v > 0:
+            raise ProblemError(f"{where}: 'anthropometry.{k}' must be positive, got {v}")
+    for k, v in pb.numerics.items():
+        if not v > 0:
+            raise ProblemError(f"{where}: 'numerics.{k}' must be positive, got {v}")
+    if not pb.g > 0:
+        raise ProblemError(f"{where}: 'environment.g' must be positive, got {pb.g}")
+    if not abs(pb.slope) < math.pi / 4:
+        raise ProblemError(f"{where}: 'environment.slope' must be below pi/4 rad, got {pb.slope}")
+    for k, v in pb.compliance.items():
+        if not math.isfinite(v):
+            raise ProblemError(f"{where}: 'compliance.{k}' must be finite")
+        if k in fam.NONNEGATIVE_COMPLIANCE and v < 0:
+            raise ProblemError(f"{where}: 'compliance.{k}' must be >= 0, got {v}")
+    for k, v in pb.initial_state.items():
+        if not math.isfinite(v):
+            raise ProblemError(f"{where}: 'initial_state.{k}' must be finite")
+    fam.check_anthropometry(pb.anthropometry, where)
+
+
+def load_problem(name_or_path: str | Path) -> Problem:
+    """Load and validate a problem: a bundled name (``"humanlike_6link"``) or a TOML path."""
+    path = resolve(name_or_path, "problems", ".toml")
+    if not path.is_file():
+        known = ", ".join(bundled_names("problems", ".toml"))
+        raise ProblemError(f"problem {str(name_or_path)!r} not found: not a file and not a "
+                           f"bundled problem ({known})")
+    where = str(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ProblemError(f"{where}: not valid TOML: {exc}") from None
+    return problem_from_dict(raw, name=path.stem, source=path)
+
+
+def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None = None) -> Problem:
+    """Validate a parsed problem (same layout as the TOML file)."""
+    from .walkers import FAMILIES, get_family
+
+    where = str(source or name)
+    unknown = [k for k in raw if k not in _SECTIONS]
+    if unknown:
+        raise ProblemError(f"{where}: unknown section(s) {', '.join(unknown)}; "
+                           f"allowed: {', '.join(_SECTIONS)}")
+    walker = raw.get("walker")
+    if not isinstance(walker, Mapping) or "family" not in walker:
+        raise ProblemError(f"{where}: missing key 'walker.family' (one of {', '.join(FAMILIES)})")
+    extra = set(walker) - {"family", "title"}
+    if extra:
+        raise ProblemError(f"{where}: unknown key(s) {sorted('walker.' + k for k in extra)}")
+    family = walker["family"]
+    if family not in FAMILIES:
+        raise ProblemError(f"{where}: 'walker.family' = {family!r} is not one of "
+                           f"{', '.join(FAMILIES)}")
+    fam = get_family(family)
+    env = _section(raw, where, "environment", ["g", "slope"])
+    anthro = _section(raw, where, "anthropometry", list(fam.ANTHROPOMETRY_KEYS))
+    comp = _section(raw, where, "compliance", list(fam.COMPLIANCE_KEYS)) \
+        if fam.COMPLIANCE_KEYS else _section(raw, where, "compliance", [], {})
+    state = _section(raw, where, "initial_state", list(fam.STATE_KEYS))
+    numerics = _section(raw, where, "numerics", [], NUMERICS_DEFAULTS)
+    validity = _section(raw, where, "validity", [], VALIDITY_DEFAULTS)
+    bounds_raw = raw.get("compliance_bounds", {})
+    bounds: dict[str, tuple[float, float]] = {}
+    for k, v in bounds_raw.items():
+        if k not in comp:
+            raise ProblemError(f"{where}: unknown key 'compliance_bounds.{k}'")
+        if not (isinstance(v, list) and len(v) == 2):
+            raise ProblemError(f"{where}: 'compliance_bounds.{k}' must be [lower, upper]")
+        lo, hi = (_num(where, f"compliance_bounds.{k}", x) for x in v)
+        if not lo <= comp[k] <= hi:
+            raise ProblemError(f"{where}: 'compliance.{k}' = {comp[k]} lies outside its bounds "
+                               f"[{lo}, {hi}]")
+        bounds[k] = (lo, hi)
+    pb = Problem(
+        name=name, family=family, title=str(walker.get("title", name)), g=env["g"],
+        slope=env["slope"], anthropometry=_frozen(anthro), compliance=_frozen(comp),
+        compliance_bounds=_frozen(bounds), initial_state=_frozen(state),
+        numerics=_frozen(numerics), validity=_frozen(validity), source=source,
+    )
+    _check_values(pb, where)
+    return pb
+
+
+def load_overrides(path: str | Path, what: str) -> dict[str, float]:
+    """Read a JSON or TOML file of ``{name: value}`` overrides (state or compliance).
+
+    A file may also be a ``summary.json`` written by this toolkit: its ``fixed_point`` (for
+    ``what="state"``) or ``compliance`` table is used.
+    """
+    import json
+
+    p = Path(path)
+    if not p.is_file():
+        raise ProblemError(f"{p}: {what} file not found")
+    try:
+        raw = json.loads(p.read_text()) if p.suffix == ".json" else tomllib.loads(p.read_text())
+    except (ValueError, tomllib.TOMLDecodeError) as exc:
+        raise ProblemError(f"{p}: cannot parse {what} file: {exc}") from None
+    key = {"state": ("fixed_point", "initial_state"), "compliance": ("compliance",)}[what]
+    for k in key:
+        if isinstance(raw, Mapping) and isinstance(raw.get(k), Mapping):
+            raw = raw[k]
+            break
+    if not isinstance(raw, Mapping) or not raw:
+        raise ProblemError(f"{p}: expected a table of {what} values")
+    return {k: _num(str(p), k, v) for k, v in raw.items()}

@@ -1,0 +1,425 @@
+"""Event-driven simulation of a hybrid walker through any number of steps.
+
+Each phase is integrated with fixed RK4 steps of ``numerics.step_size`` (s), evaluated in
+chunks by one CasADi call. When an enabled event function changes sign within a step, the
+event time is found by safeguarded Newton on the partial RK4 step (to 1e-13 s), the walker
+switches mode or phase there, and integration restarts from the event state. The exact
+sequence of full and partial steps is kept as a *plan* so that the Poincare map can replay
+the identical discrete map with exact derivatives (:mod:`pdw_casadi.poincare`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .hybrid import FAILURE, GUARD, HybridSystem
+from .system import hybrid_system
+
+TAU_TOL = 1e-13  # s, event-time tolerance of the Newton location
+
+
+@dataclass
+class Failure:
+    """Why a simulation stopped before completing its steps (a typed result, not a crash).
+
+    ``reason``: e.g. ``fall``, ``toe_scuff``, ``foot1_lift`` (contact force of the wrong
+    sign), ``cop1_at_heel`` (centre of pressure outside the foot), ``heel_strike:impulse_toe1``
+    (impulse of the wrong sign), ``guard_not_reached``; ``step`` (0-based), ``time`` (s).
+    """
+
+    reason: str
+    step: int
+    time: float
+    phase: str
+    detail: str = ""
+
+    def to_dict(self) -> dict:
+        return {"reason": self.reason, "step": self.step, "time_s": self.time,
+                "phase": self.phase, "detail": self.detail}
+
+
+@dataclass
+class Segment:
+    """A run of RK4 steps at constant phase and mode: ``n`` full steps of size ``h`` then a
+    partial step ``tau`` ending on event ``event`` (index into the phase's events; -1: none)."""
+
+    phase: str
+    mode: tuple[float, ...]
+    n: int
+    h: float
+    tau: float
+    event: int
+    sign: int = 0
+
+
+@dataclass
+class Plan:
+    """The discrete map of one step: segments and transitions, in order."""
+
+    items: list = field(default_factory=list)  # Segment or ("transition", name)
+
+
+@dataclass
+class StepRecord:
+    """One walking step (section to section)."""
+
+    index: int
+    t_start: float
+    phases: list[tuple[str, float]]
+    x_section_start: np.ndarray
+    x_section_end: np.ndarray | None = None
+    step_length: float = float("nan")
+    dissipated_damping_J: float = 0.0
+    impact_loss_J: float = 0.0
+    spring_loss_J: float = 0.0
+    energy_start_J: float = float("nan")
+    energy_end_J: float = float("nan")
+    margins: dict = field(default_factory=dict)
+    plan: Plan = field(default_factory=Plan)
+
+    @property
+    def step_time(self) -> float:
+        return float(sum(d for _, d in self.phases))
+
+    @property
+    def energy_residual_J(self) -> float:
+        """(E_start - E_end) - (damping work + impact losses + disengagement losses), J."""
+        lost = self.dissipated_damping_J + self.impact_loss_J + self.spring_loss_J
+        return (self.energy_start_J - self.energy_end_J) - lost
+
+    def to_dict(self) -> dict:
+        return {
+            "index": self.index, "t_start_s": self.t_start,
+            "phases": [{"name": n, "duration_s": d} for n, d in self.phases],
+            "step_time_s": self.step_time, "step_length_m": self.step_length,
+            "damping_work_J": self.dissipated_damping_J, "impact_loss_J": self.impact_loss_J,
+            "spring_disengagement_loss_J": self.spring_loss_J,
+            "energy_residual_J": self.energy_residual_J,
+        }
+
+
+@dataclass
+class SimulationResult:
+    """Trajectory (DataFrame), events table, per-step records and the failure, if any."""
+
+    trajectory: pd.DataFrame | None
+    events: pd.DataFrame
+    steps: list[StepRecord]
+    failure: Failure | None
+    state_names: tuple[str, ...]
+    final_state: np.ndarray
+    final_mode: dict
+
+    @property
+    def completed_steps(self) -> int:
+        return sum(1 for s in self.steps if s.x_section_end is not None)
+
+    @property
+    def poincare_states(self) -> np.ndarray:
+        """Section states at the start of every completed step and after the last (rows)."""
+        rows = [self.steps[0].x_section_start] if self.steps else []
+        rows += [s.x_section_end for s in self.steps if s.x_section_end is not None]
+        return np.array(rows)
+
+    def to_frame(self) -> pd.DataFrame:
+        return self.trajectory if self.trajectory is not None else pd.DataFrame()
+
+
+def _crossed(g0: float, g1: float, direction: int) -> bool:
+    if direction < 0:
+        return g0 > 0 >= g1
+    if direction > 0:
+        return g0 < 0 <= g1
+    return (g0 > 0 >= g1) or (g0 < 0 <= g1)
+
+
+class Simulator:
+    """Event-driven simulation of one walker; keeps CasADi functions, reused across calls."""
+
+    def __init__(self, problem, hs: HybridSystem | None = None):
+        self.problem = problem
+        self.hs = hs or hybrid_system(problem)
+        self.h = float(problem.numerics["step_size"])
+        self.t_max = float(problem.numerics["max_phase_time"])
+
+    # -- one phase -------------------------------------------------------------------------
+    def _locate(self, phase, x, p, mv, idx, h):
+        """Smallest tau in (0, h] at which event ``idx`` crosses zero (safeguarded Newton)."""
+        loc = self.hs.locate[phase]
+        lo, hi = 0.0, h
+        g_lo = float(self.hs.events[phase](x, p, mv)[idx])
+        tau = h * g_lo / (g_lo - float(loc(x, h, p, mv)[0][idx])) if g_lo else 0.5 * h
+        tau = min(max(tau, 0.0), h)
+        for _ in range(60):
+            g, dg, _ = loc(x, tau, p, mv)
+            g, dg = float(g[idx]), float(dg[idx])
+            if (g > 0) == (g_lo > 0):
+                lo = tau
+            else:
+                hi = tau
+            new = tau - g / dg if dg != 0 else 0.5 * (lo + hi)
+            if not lo < new < hi:
+                new = 0.5 * (lo + hi)
+            if abs(new - tau) < TAU_TOL or g == 0.0:
+                tau = new
+                break
+            tau = new
+        return tau
+
+    def run_phase(self, phase, x, p, mode, t0, rec, plan):
+        """Integrate one phase from x until its guard; returns (x_end, mode, t, event, fail)."""
+        hs, h = self.hs, self.h
+        evs = hs.event_list[phase]
+        mode = hs.refresh_indicators(phase, x, p, mode)
+        mv = hs.mode_vector(mode)
+        enabled = [e.enabled(mode) for e in evs]
+        g_prev = hs.events[phase](x, p, mv).full().ravel()
+        arm = np.array([e.arm_above for e in evs])
+        armed = g_prev > arm
+        t = 0.0
+        n_full = 0
+        K = hs.chunk_size
+        chunk = hs.chunk[phase]
+        while True:
+            X, G = chunk(x, h, p, mv)
+            X, G = X.full(), G.full()
+            Gp = np.column_stack([g_prev, G[:, :-1]])
+            hit_k, hits = None, []
+            for i, e in enumerate(evs):
+                if not enabled[i]:
+                    continue
+                a, b = Gp[i], G[i]
+                if arm[i] > 0:
+                    seen = np.maximum.accumulate(a > arm[i]) | armed[i]
+                    a = np.where(seen, a, -np.inf if e.direction <= 0 else np.inf)
+                if e.direction < 0:
+                    mask = (a > 0) & (b <= 0)
+                elif e.direction > 0:
+                    mask = (a < 0) & (b >= 0)
+                else:
+                    mask = ((a > 0) & (b <= 0)) | ((a < 0) & (b >= 0))
+                ks = np.flatnonzero(mask)
+                if ks.size:
+                    k = int(ks[0])
+                    if hit_k is None or k < hit_k:
+                        hit_k, hits = k, [i]
+                    elif k == hit_k:
+                        hits.append(i)
+            if hit_k is None:
+                if rec is not None:
+                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X))
+                x, g_prev = X[:, -1], G[:, -1]
+                armed |= (G > arm[:, None]).any(axis=1)
+                t += K * h
+                n_full += K
+                if t > self.t_max:
+                    return x, mode, t, None, "guard_not_reached"
+                continue
+            x_before = X[:, hit_k - 1] if hit_k > 0 else np.asarray(x).ravel()
+            if rec is not None and hit_k > 0:
+                rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k]))
+            t += hit_k * h
+            n_full += hit_k
+            taus = [(self._locate(phase, x_before, p, mv, i, h), i) for i in hits]
+            tau, idx = min(taus)
+            x_e = hs.step[phase](x_before, tau, p, mv).full().ravel()
+            t += tau
+            g_e = hs.events[phase](x_e, p, mv).full().ravel()
+            ev = evs[idx]
+            sign = 1 if g_prev_sign(Gp[idx, hit_k]) < 0 else -1
+            if rec is not None:
+                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None]))
+            plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, idx, sign))
+            n_full = 0
+            if ev.kind == FAILURE:
+                return x_e, mode, t, ev, ev.name
+            if ev.kind == GUARD:
+                if ev.require is not None:
+                    req = float(hs.require[phase](x_e, p, mv)[idx])
+                    if req <= 0:
+                        return x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid"
+                return x_e, mode, t, ev, None
+            # SWITCH: new mode, continue the phase from the event state
+            if ev.indicator:
+                mode = {**mode, ev.indicator: 1.0 if sign > 0 else 0.0}
+            if ev.effect is not None:
+                mode = ev.effect(mode, sign)
+            mode = hs.refresh_indicators(phase, x_e, p, mode, skip=idx)
+            new_mv = hs.mode_vector(mode)
+            self._spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
+            self._switches.append((phase, ev.name, t0 + t))
+            mv = new_mv
+            enabled = [e.enabled(mode) for e in evs]
+            armed |= (Gp[:, : hit_k + 1] > arm[:, None]).any(axis=1)
+            g_prev = g_e
+            g_prev[idx] = 0.0  # the event just handled must not be found again
+            x = x_e
+
+    def _spring(self, x, p, mv) -> float:
+        return float(self.hs.energy(x, p, mv)[2])
+
+    def _energy(self, x, p, mv) -> float:
+        return float(np.sum(self.hs.energy(x, p, mv).full()))
+
+    # -- whole steps -----------------------------------------------------------------------
+    def run(self, x_section, p, steps: int = 1, record: bool = True,
+            mode: dict | None = None, progress=None) -> SimulationResult:
+        """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``."""
+        hs = self.hs
+        model = hs.model
+        p = np.asarray(p, dtype=float).ravel()
+        xs = np.asarray(x_section, dtype=float).ravel()
+        x = hs.model.section_to_full(xs, p).full().ravel()
+        mode = dict(mode or model.initial_mode)
+        t = 0.0
+        rec = [] if record else None
+        event_rows: list[dict] = []
+        records: list[StepRecord] = []
+        failure = None
+        transitions = hs.transitions
+        first = hs.phase_names[0]
+        for k in range(steps):
+            if not np.all(np.isfinite(x)):
+                failure = Failure("non_finite_state", k, t, first)
+                break
+            sr = StepRecord(k, t, [], xs.copy())
+            mode = hs.refresh_indicators(first, x, p, mode)
+            sr.energy_start_J = self._energy(x, p, hs.mode_vector(mode))
+            w0 = x[-1]
+            self._spring_loss = 0.0
+            self._switches = []
+            records.append(sr)
+            phase = first
+            margins: dict[str, float] = {}
+            while True:
+                n_rec = len(rec) if rec is not None else 0
+                x_end, mode, dt, ev, fail = self.run_phase(phase, x, p, mode, t, rec, sr.plan)
+                for ph, name, te in self._switches:
+                    event_rows.append({"step": k, "phase": ph, "event": name, "t": te,
+                                       "kind": "switch"})
+                self._switches = []
+                self._phase_margins(phase, rec, n_rec, p, margins)
+                t += dt
+                sr.phases.append((phase, dt))
+                if fail is not None:
+                    failure = Failure(fail, k, t, phase, ev.description if ev else "")
+                    event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
+                                       "kind": "failure"})
+                    x = x_end
+                    break
+                event_rows.append({"step": k, "phase": phase, "event": ev.name, "t": t,
+                                   "kind": "guard"})
+                tr = transitions[phase]
+                mv = hs.mode_vector(mode)
+                if tr.ends_step:
+                    sr.step_length = float(hs.step_length(x_end, p))
+                x_plus, imp, chk, x_post = (v.full().ravel() for v in hs.impact[tr.name](x_end, p))
+                sr.plan.items.append(("transition", tr.name))
+                ke = hs.energy(x_end, p, mv).full().ravel()
+                ke_post = float(hs.energy(x_post, p, mv)[0])
+                sr.impact_loss_J += ke[0] - ke_post
+                for name, v in zip(hs.check_names[tr.name], chk, strict=True):
+                    margins[f"{tr.name}:{name}"] = float(v)
+                bad = [n for n, v in zip(hs.check_names[tr.name], chk, strict=True) if v <= 0]
+                if bad:
+                    failure = Failure(f"{tr.name}:{bad[0]}", k, t, phase,
+                                      "impulse or post-impact velocity of the wrong sign")
+                    x = x_end
+                    break
+                new_mode = tr.mode_after(mode) if tr.mode_after else mode
+                if isinstance(new_mode, str):
+                    failure = Failure(new_mode, k, t, phase, "mode rule broken at " + tr.name)
+                    x = x_end
+                    break
+                new_mode = hs.refresh_indicators(tr.target, x_plus, p, new_mode)
+                self._spring_loss += ke[2] - self._spring(x_plus, p, hs.mode_vector(new_mode))
+                mode, x, phase = new_mode, x_plus, tr.target
+                if tr.ends_step:
+                    sr.dissipated_damping_J = x_end[-1] - w0
+                    sr.spring_loss_J = self._spring_loss
+                    sr.energy_end_J = ke_post + ke[1] + self._spring(x_plus, p,
+                                                                     hs.mode_vector(mode))
+                    sr.x_section_end = model.full_to_section(x).full().ravel()
+                    sr.margins = margins
+                    xs = sr.x_section_end
+                    break
+            if failure is not None:
+                break
+            if progress is not None:
+                progress(k + 1)
+        traj = self._trajectory(rec, records, p) if record else None
+        ev = pd.DataFrame(event_rows, columns=["step", "phase", "event", "t", "kind"])
+        return SimulationResult(traj, ev, records, failure, model.state_names, x, mode)
+
+    def _phase_margins(self, phase, rec, n_rec, p, margins):
+        """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase."""
+        if rec is None:
+            return
+        names = self.hs.output_names[phase]
+        for ph, mv, _, X in rec[n_rec:]:
+            out = self.hs.outputs[ph](X, p, mv).full()
+            for j, name in enumerate(names):
+                key = None
+                if name.startswith("N_"):
+                    key, val = f"{phase}:min_{name}", out[j].min()
+                elif name.startswith("copmargin_"):
+                    key, val = f"{phase}:min_{name}", out[j].min()
+                elif name.startswith("clearance_"):
+                    key, val = f"{phase}:min_{name}", out[j].min()
+                if key is not None:
+                    margins[key] = float(min(val, margins.get(key, math.inf)))
+
+    def _trajectory(self, rec, records, p) -> pd.DataFrame:
+        hs = self.hs
+        q_names = [f"{n}" for n in _q_names(hs)]
+        frames = []
+        starts = [r.t_start for r in records]
+        for ph, mv, ts, X in rec:
+            out = hs.outputs[ph](X, p, mv).full()
+            data = {"t": ts, "phase": ph}
+            for j, n in enumerate(q_names):
+                data[n] = X[j]
+                data["d" + n] = X[hs.nq + j]
+            data["damping_work_J"] = X[-1]
+            for j, n in enumerate(hs.output_names[ph]):
+                data[n] = out[j]
+            frames.append(pd.DataFrame(data))
+        if not frames:
+            return pd.DataFrame()
+        df = pd.concat(frames, ignore_index=True)
+        df.insert(1, "step", np.searchsorted(starts, df["t"].to_numpy(), side="right") - 1)
+        return df
+
+
+def g_prev_sign(v: float) -> int:
+    return 1 if v > 0 else -1
+
+
+def _q_names(hs) -> list[str]:
+    names = hs.model.q_names
+    return list(names) if names else [f"q{i}" for i in range(hs.nq)]
+
+
+def simulate(problem, steps: int = 1, state=None, parameters=None, record: bool = True,
+             progress=None) -> SimulationResult:
+    """Simulate ``steps`` steps of ``problem``'s walker from its initial section state.
+
+    Args:
+        problem: a :class:`~pdw_casadi.problem.Problem` (or a bundled name / path).
+        steps: number of steps (section to section).
+        state: section state (rad, rad/s) in the problem's state order; default: the problem's.
+        parameters: compliance + slope vector; default: the problem's.
+        record: keep the full trajectory DataFrame (off for speed in Newton / sweeps).
+    """
+    from .problem import Problem, load_problem
+
+    if not isinstance(problem, Problem):
+        problem = load_problem(problem)
+    sim = Simulator(problem)
+    x0 = problem.state_vector() if state is None else state
+    p = problem.parameter_vector() if parameters is None else parameters
+    return sim.run(x0, p, steps=steps, record=record, progress=progress)

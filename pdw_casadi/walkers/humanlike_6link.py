@@ -1,0 +1,279 @@
+"""The humanlike 6-link walker of the paper (flat feet, compliant ankles, engageable knees).
+
+Conventions follow the project's MODEL.md: absolute angles from the vertical with link
+direction d(q) = (sin q, -cos q); q = [q1, q2, q3, q4, qf1, qf2, x_t1, y_t1]; three phases
+per step (I: leading foot flat + trailing toe pivot; II: single stance on the flat foot;
+III: trailing toe + leading heel pivots), heel strike and foot strike impacts, then a leg
+swap. Modes: ``eng1``/``eng2`` knee springs engaged, ``flex1``/``flex2`` disengaged knee
+flexing (selects flexion or extension damping), ``armed2`` swing-knee spring armed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+
+from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
+from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
+from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
+
+ANTHROPOMETRY_KEYS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh",
+                      "m_h", "m_t", "m_s", "m_f", "J_t", "J_s", "J_f")
+COMPLIANCE_KEYS = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee",
+                   "c_knee_stance", "theta_eq", "theta_dis")
+STATE_KEYS = ("q1", "q2", "q3", "qf2", "dq1", "dq2", "dq3")
+POSITIVE_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "l_fc")
+NONNEGATIVE_COMPLIANCE = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee",
+                          "c_knee_stance")
+MODE_KEYS = ("eng1", "eng2", "flex1", "flex2", "armed2")
+Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
+#: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
+SWAP = (3, 2, 1, 0, 5, 4)
+
+
+def check_anthropometry(a, where) -> None:
+    """Foot geometry must close: heel-to-ankle + ankle-to-toe = foot length."""
+    from ..problem import ProblemError
+
+    if abs(a["l_ft"] + a["l_fh"] - a["l_f"]) > 1e-9:
+        raise ProblemError(f"{where}: 'anthropometry.l_ft' + 'anthropometry.l_fh' must equal "
+                           f"'anthropometry.l_f' ({a['l_ft']} + {a['l_fh']} != {a['l_f']})")
+    for com, length in (("l_sc", "l_s"), ("l_tc", "l_t")):
+        if not a[com] < a[length]:
+            raise ProblemError(f"{where}: 'anthropometry.{com}' must be shorter than "
+                               f"'anthropometry.{length}'")
+
+
+def _height(point, n):
+    return ca.dot(point, n)
+
+
+def build(problem) -> WalkerModel:
+    """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in)."""
+    a = dict(problem.anthropometry)
+    q = ca.SX.sym("q", 8)
+    qd = ca.SX.sym("qd", 8)
+    q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
+    p = ca.SX.sym("p", len(COMPLIANCE_KEYS) + 1)
+    c = {k: p[i] for i, k in enumerate(COMPLIANCE_KEYS)}
+    gamma = p[-1]
+    m = ca.SX.sym("m", len(MODE_KEYS))
+    md = {k: m[i] for i, k in enumerate(MODE_KEYS)}
+    n = ca.vertcat(ca.sin(gamma), ca.cos(gamma))
+    t_slope = ca.vertcat(ca.cos(gamma), -ca.sin(gamma))  # downhill along the ground
+
+    toe1 = ca.vertcat(xt, yt)
+    ankle1 = toe1 - a["l_ft"] * direction(qf1)
+    knee1 = ankle1 - a["l_s"] * direction(q1)
+    hip = knee1 - a["l_t"] * direction(q2)
+    knee2 = hip + a["l_t"] * direction(q3)
+    ankle2 = knee2 + a["l_s"] * direction(q4)
+    toe2 = ankle2 + a["l_ft"] * direction(qf2)
+    heel1 = ankle1 - a["l_fh"] * direction(qf1)
+    heel2 = ankle2 - a["l_fh"] * direction(qf2)
+    points = {"toe1": toe1, "heel1": heel1, "ankle1": ankle1, "knee1": knee1, "hip": hip,
+              "knee2": knee2, "ankle2": ankle2, "heel2": heel2, "toe2": toe2}
+    links = [("toe1", "heel1"), ("ankle1", "knee1"), ("knee1", "hip"), ("hip", "knee2"),
+             ("knee2", "ankle2"), ("heel2", "toe2")]
+
+    bodies = [  # order of eq. (1)
+        Body("shank1", a["m_s"], a["J_s"], ankle1 - a["l_sc"] * direction(q1), q1),
+        Body("thigh1", a["m_t"], a["J_t"], knee1 - a["l_tc"] * direction(q2), q2),
+        Body("thigh2", a["m_t"], a["J_t"], knee2 - a["l_tc"] * direction(q3), q3),
+        Body("shank2", a["m_s"], a["J_s"], ankle2 - a["l_sc"] * direction(q4), q4),
+        Body("hip", a["m_h"], 0.0, hip),
+        Body("foot1", a["m_f"], a["J_f"], ankle1 + a["l_fc"] * direction(qf1), qf1),
+        Body("foot2", a["m_f"], a["J_f"], ankle2 + a["l_fc"] * direction(qf2), qf2),
+    ]
+    sysm = PlanarSystem(q, qd, bodies, problem.g)
+
+    def knee_damping(i):
+        free = md[f"flex{i}"] * c["c_knee_flex"] + (1 - md[f"flex{i}"]) * c["c_knee_ext"]
+        return md[f"eng{i}"] * c["c_knee_stance"] + (1 - md[f"eng{i}"]) * free
+
+    ankle_law = spring_damper(c["k_ankle"], math.pi / 2, c["c_ankle"])
+    elements = [
+        JointTorque("ankle1", qf1, q1, ankle_law),
+        JointTorque("ankle2", qf2, q4, ankle_law),
+        JointTorque("knee1", q2, q1, engageable_spring_damper(
+            md["eng1"], c["k_knee"], c["theta_eq"], knee_damping(1))),
+        JointTorque("knee2", q3, q4, engageable_spring_damper(
+            md["eng2"], c["k_knee"], c["theta_eq"], knee_damping(2))),
+    ]
+    F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
+    F_q = sysm.F_gravity + sysm.F_velocity + F_torque
+
+    lf = a["l_f"]
+    flat1 = lf * ca.cos(qf1)
+    contact_I = ContactSet("I", ca.vertcat(toe2, xt, yt, flat1),
+                           ("toe2_x", "toe2_y", "toe1_x", "toe1_y", "flat1"))
+    contact_II = ContactSet("II", ca.vertcat(xt, yt, flat1), ("toe1_x", "toe1_y", "flat1"))
+    contact_III = ContactSet("III", ca.vertcat(xt, yt, heel2),
+                             ("toe1_x", "toe1_y", "heel2_x", "heel2_y"))
+    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(xt, yt, toe2, lf * ca.cos(qf2)),
+                                     ("toe1_x", "toe1_y", "toe2_x", "toe2_y", "flat2"))
+
+    theta1, theta2 = q2 - q1, q3 - q4
+    dtheta1, dtheta2 = qd[1] - qd[0], qd[2] - qd[3]
+    hip_h = _height(hip, n)
+    leg = a["l_s"] + a["l_t"]
+
+    def flat_foot(lam_fx, lam_fy, lam_couple, qf, tag):
+        """Normal force (N), couple (N m) and centre-of-pressure margins (N m) of a flat foot.
+
+        The couple row l_f cos(qf) gives a torque -l_f sin(qf) lambda on the foot; the
+        centre of pressure lies s = -tau/N behind the toe, so s N and (l_f - s) N are the
+        smooth margins (positive while N > 0 and the CoP is inside the foot).
+        """
+        force = ca.vertcat(lam_fx, lam_fy)
+        normal = ca.dot(force, n)
+        tau = -lf * ca.sin(qf) * lam_couple
+        cop = -tau / normal
+        outs = {f"N_{tag}": normal, f"cop_{tag}_from_toe": cop,
+                f"copmargin_{tag}": ca.fmin(cop, lf - cop),
+                f"F_{tag}_x": lam_fx, f"F_{tag}_y": lam_fy}
+        return normal, -tau, lf * normal + tau, outs
+
+    def knee_events(i, theta, dtheta):
+        evs = [Event(f"knee{i}_rate", dtheta, 0, SWITCH,
+                     "disengaged knee changes between flexion and extension damping",
+                     when=lambda md_, i=i: md_[f"eng{i}"] == 0, indicator=f"flex{i}")]
+        if i == 1:
+            evs.append(Event("knee1_disengage", theta - c["theta_dis"], -1, SWITCH,
+                             "stance knee spring disengages while extending through theta_dis",
+                             when=lambda md_: md_["eng1"] == 1,
+                             effect=lambda md_, s: {**md_, "eng1": 0.0}))
+        else:
+            evs.append(Event("knee2_engage", theta - c["theta_eq"], 0, SWITCH,
+                             "armed swing knee spring engages at its equilibrium angle",
+                             when=lambda md_: md_["armed2"] == 1 and md_["eng2"] == 0,
+                             effect=lambda md_, s: {**md_, "eng2": 1.0, "armed2": 0.0}))
+        return evs
+
+    fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
+    common_events = [*knee_events(1, theta1, dtheta1), *knee_events(2, theta2, dtheta2), fall]
+
+    # Phase I: leading foot flat, trailing toe pivot
+    ph1 = make_phase(sysm, F_q, "I", contact_I)
+    lam = ph1.lam
+    N_toe2 = ca.dot(lam[0:2], n)
+    N1, m1a, m1b, outs1 = flat_foot(lam[2], lam[3], lam[4], qf1, "foot1")
+    ph1.outputs = {**outs1, "N_toe2": N_toe2, "F_toe2_x": lam[0], "F_toe2_y": lam[1]}
+    ph1.events = [
+        Event("toe_off", N_toe2, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
+        Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
+        Event("cop1_at_toe", m1a, -1, FAILURE, "centre of pressure reaches the stance toe"),
+        Event("cop1_at_heel", m1b, -1, FAILURE, "centre of pressure reaches the stance heel"),
+        *common_events,
+    ]
+    # Phase II: single stance on the flat foot, swing leg free
+    ph2 = make_phase(sysm, F_q, "II", contact_II)
+    lam = ph2.lam
+    N1, m1a, m1b, outs2 = flat_foot(lam[0], lam[1], lam[2], qf1, "foot1")
+    ph2.outputs = {**outs2, "clearance_toe2": _height(toe2, n),
+                   "clearance_heel2": _height(heel2, n)}
+    ph2.events = [
+        Event("heel_strike", _height(heel2, n), -1, GUARD, "swing heel reaches the ground",
+              require=ca.dot(heel2 - heel1, t_slope), require_reason="heel_strike_behind"),
+        Event("toe_scuff", _height(toe2, n), -1, FAILURE, "swing toe hits the ground",
+              arm_above=1e-4),
+        Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
+        Event("cop1_at_toe", m1a, -1, FAILURE, "centre of pressure reaches the stance toe"),
+        Event("cop1_at_heel", m1b, -1, FAILURE, "centre of pressure reaches the stance heel"),
+        *common_events,
+    ]
+    # Phase III: trailing toe and leading heel pivots
+    ph3 = make_phase(sysm, F_q, "III", contact_III)
+    lam = ph3.lam
+    N_toe1 = ca.dot(lam[0:2], n)
+    N_heel2 = ca.dot(lam[2:4], n)
+    ph3.outputs = {"N_toe1": N_toe1, "N_heel2": N_heel2, "F_toe1_x": lam[0],
+                   "F_toe1_y": lam[1], "F_heel2_x": lam[2], "F_heel2_y": lam[3]}
+    ph3.events = [
+        Event("foot_strike", qf2 - (ca.pi / 2 - gamma), -1, GUARD,
+              "leading foot rotates flat onto the ground"),
+        Event("toe1_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
+        Event("heel2_lift", N_heel2, -1, FAILURE, "leading heel normal force reaches zero"),
+        *common_events,
+    ]
+
+    # transitions: toe-off (no impact, arms the swing knee), heel strike, foot strike + swap
+    toe_off = make_transition(sysm, "toe_off", "I", "II", None,
+                              mode_after=lambda md_: {**md_, "armed2": 1.0})
+    heel = make_transition(sysm, "heel_strike", "II", "III", contact_III)
+    qdp = heel.qd_plus
+    heel.checks = {
+        "impulse_toe1": ca.dot(heel.impulse[0:2], n),
+        "impulse_heel2": ca.dot(heel.impulse[2:4], n),
+        "heel1_rise_speed": ca.dot(ca.jtimes(heel1, q, qdp), n),
+    }
+    foot = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike, ends_step=True)
+    imp = foot.impulse
+    N_imp = ca.dot(imp[2:4], n)
+    tau_imp = -lf * ca.sin(qf2) * imp[4]
+    foot.checks = {
+        "impulse_toe1": ca.dot(imp[0:2], n),
+        "impulse_foot2": N_imp,
+        "impulse_cop2_from_toe": -tau_imp / N_imp,
+        "impulse_cop2_from_heel": lf + tau_imp / N_imp,
+    }
+    swap = list(SWAP)
+    q_new = ca.vertcat(*[q[i] for i in swap], 0, 0)
+    qd_new = ca.vertcat(*[qd[i] for i in swap], 0, 0)
+    foot.relabel = (q_new, qd_new)
+
+    def after_foot_strike(md_):
+        if md_["eng2"] != 1:
+            return "swing_knee_not_engaged"
+        return {"eng1": 1.0, "eng2": 0.0, "flex1": md_["flex2"], "flex2": md_["flex1"],
+                "armed2": 0.0}
+
+    foot.mode_after = after_foot_strike
+
+    # section state <-> full state
+    xs = ca.SX.sym("xs", len(STATE_KEYS))
+    s_q1, s_q2, s_q3, s_qf2, s_d1, s_d2, s_d3 = (xs[i] for i in range(7))
+    s_qf1 = ca.pi / 2 - gamma
+    knee2_s = ca.substitute(knee2, ca.vertcat(q1, q2, q3, qf1, xt, yt),
+                            ca.vertcat(s_q1, s_q2, s_q3, s_qf1, 0, 0))
+    # toe2 height = 0: l_s cos(q4 + gamma) = knee2.n + l_ft d(qf2).n, d(a).n = -cos(a + gamma)
+    rhs_c = (_height(knee2_s, n) - a["l_ft"] * ca.cos(s_qf2 + gamma)) / a["l_s"]
+    root = ca.acos(ca.fmin(ca.fmax(rhs_c, -1), 1))
+    r_plus, r_minus = -gamma + root, -gamma - root
+    s_q4 = ca.if_else(ca.fabs(r_plus - s_q3) < ca.fabs(r_minus - s_q3), r_plus, r_minus)
+    q_s = ca.vertcat(s_q1, s_q2, s_q3, s_q4, s_qf1, s_qf2, 0, 0)
+    # trailing toe at rest: solve for (dq4, dqf2)
+    v_toe2 = ca.jacobian(toe2, q)
+    Jt = ca.substitute(v_toe2, q, q_s)
+    A = ca.horzcat(Jt[:, 3], Jt[:, 5])
+    b = -(Jt[:, 0] * s_d1 + Jt[:, 1] * s_d2 + Jt[:, 2] * s_d3)
+    sol = ca.solve(A, b)
+    qd_s = ca.vertcat(s_d1, s_d2, s_d3, sol[0], 0, sol[1], 0, 0)
+    section_to_full = ca.Function("section_to_full", [xs, p], [ca.vertcat(q_s, qd_s, 0)],
+                                  ["xs", "p"], ["x"])
+    xf = ca.SX.sym("x", 17)
+    full_to_section = ca.Function(
+        "full_to_section", [xf], [ca.vertcat(xf[0], xf[1], xf[2], xf[5], xf[8], xf[9], xf[10])],
+        ["x"], ["xs"])
+
+    common = {
+        "knee1_deg": theta1 * 180 / math.pi, "knee2_deg": theta2 * 180 / math.pi,
+        "hip1_deg": (q2 + gamma) * 180 / math.pi, "hip2_deg": (q3 + gamma) * 180 / math.pi,
+        "thigh1_deg": q2 * 180 / math.pi, "thigh2_deg": q3 * 180 / math.pi,
+        "ankle1_deg": (qf1 - q1) * 180 / math.pi, "ankle2_deg": (qf2 - q4) * 180 / math.pi,
+        "kinetic_J": sysm.kinetic, "potential_J": sysm.potential, "spring_J": spring_energy,
+        "hip_height_m": hip_h, "toe2_height_m": _height(toe2, n),
+        "heel2_height_m": _height(heel2, n), "heel1_height_m": _height(heel1, n),
+    }
+    return WalkerModel(
+        name=problem.name, system=sysm, p=p, m=m, mode_keys=MODE_KEYS,
+        initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0},
+        F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
+        phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
+        section_to_full=section_to_full, full_to_section=full_to_section,
+        state_names=STATE_KEYS, parameter_names=(*COMPLIANCE_KEYS, "slope"),
+        step_length=ca.dot(toe2 - toe1, t_slope), common_outputs=common, points=points,
+        links=links, ground_normal=n, q_names=Q_NAMES,
+    )
+
