@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
+from .compile import Lazy
 from .mechanics.planar import ContactSet, PlanarSystem
 
 GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
@@ -158,7 +159,7 @@ class HybridSystem:
         self.phases = {ph.name: ph for ph in model.phases}
         self.rhs, self.step, self.events, self.chunk, self.locate = {}, {}, {}, {}, {}
         self.outputs, self.output_names, self.event_list = {}, {}, {}
-        self.step_jac, self.event_jac, self.require = {}, {}, {}
+        self.event_jac, self.require = {}, {}
 
         def subs_x(expr):
             return ca.substitute(expr, ca.vertcat(q, qd), x[: 2 * self.nq])
@@ -196,14 +197,14 @@ class HybridSystem:
             X = acc(X0, hh, pp, mm)
             G = events.map(chunk_size)(X, pp, mm)
             self.chunk[ph.name] = ca.Function(f"chunk_{ph.name}", [X0, hh, pp, mm], [X, G])
-            # exact derivatives of the discrete map: one step and the event functions
-            self.step_jac[ph.name] = ca.Function(
-                f"step_jac_{ph.name}", [x, h, p, m],
-                [x_next, ca.jacobian(x_next, x), ca.jacobian(x_next, p), ca.jacobian(x_next, h)])
+            # exact derivatives of the event functions (for the Poincare map)
             self.event_jac[ph.name] = ca.Function(
                 f"event_jac_{ph.name}", [x, p, m], [g, ca.jacobian(g, x), ca.jacobian(g, p)])
-            self.rhs[ph.name], self.step[ph.name] = rhs, step
-            self.events[ph.name], self.locate[ph.name] = events, locate
+            self.chunk[ph.name] = Lazy(self.chunk[ph.name], ("-O1",))
+            self.outputs[ph.name] = Lazy(self.outputs[ph.name])
+            self.event_jac[ph.name] = Lazy(self.event_jac[ph.name])
+            self.rhs[ph.name], self.step[ph.name] = rhs, Lazy(step)
+            self.events[ph.name], self.locate[ph.name] = Lazy(events), Lazy(locate)
             self.event_list[ph.name] = ph.events
 
         self.impact, self.impact_jac = {}, {}

@@ -148,25 +148,31 @@ class Simulator:
 
     # -- one phase -------------------------------------------------------------------------
     def _locate(self, phase, x, p, mv, idx, h):
-        """Smallest tau in (0, h] at which event ``idx`` crosses zero (safeguarded Newton)."""
+        """Smallest tau in (0, h] at which event ``idx`` crosses zero (safeguarded Newton).
+
+        Newton on g(step(x, tau)) with a bracket kept by sign; stops on a tau update below
+        :data:`TAU_TOL` after g has changed sign across the bracket (so the root is inside).
+        """
         loc = self.hs.locate[phase]
         lo, hi = 0.0, h
         g_lo = float(self.hs.events[phase](x, p, mv)[idx])
-        tau = h * g_lo / (g_lo - float(loc(x, h, p, mv)[0][idx])) if g_lo else 0.5 * h
+        g_hi = float(loc(x, h, p, mv)[0][idx])
+        tau = h * g_lo / (g_lo - g_hi) if g_lo != g_hi else 0.5 * h
         tau = min(max(tau, 0.0), h)
-        for _ in range(60):
+        for _ in range(100):
             g, dg, _ = loc(x, tau, p, mv)
             g, dg = float(g[idx]), float(dg[idx])
+            if g == 0.0:
+                return tau
             if (g > 0) == (g_lo > 0):
                 lo = tau
             else:
                 hi = tau
             new = tau - g / dg if dg != 0 else 0.5 * (lo + hi)
-            if not lo < new < hi:
+            if not lo <= new <= hi:
                 new = 0.5 * (lo + hi)
-            if abs(new - tau) < TAU_TOL or g == 0.0:
-                tau = new
-                break
+            if abs(new - tau) < TAU_TOL or hi - lo < TAU_TOL:
+                return new
             tau = new
         return tau
 

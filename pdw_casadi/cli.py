@@ -1,0 +1,250 @@
+"""Console scripts of the toolkit.
+
+Each command is a ``*_main(argv=None)`` function registered in :data:`COMMANDS` and exposed
+as a console script in ``pyproject.toml`` (``pdw-simulate`` -> :func:`simulate_main`). They
+share:
+
+- :func:`common_parser`: the parent argparse parser with ``--problem``, ``--state``,
+  ``--compliance`` and ``--out``;
+- :func:`load_cli_problem`: the problem with the ``--state`` / ``--compliance`` overrides
+  applied;
+- :func:`_fail`: expected errors (bad problem, override or gait file, unwritable output)
+  become one line ``error: ...`` on stderr and exit code 2, never a traceback;
+- :func:`_write_json`: JSON output with numpy scalars/arrays, paths and non-finite floats
+  (written as ``null``) handled.
+
+Adding a command: write ``foo_main(argv=None)`` that builds its parser with
+``parents=[common_parser()]``, runs its body inside ``with _errors():``, and add it to
+:data:`COMMANDS` (``python -m pdw_casadi.cli foo ...`` then works too).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
+
+from .gait_data import GaitDataError
+from .problem import Problem, ProblemError, load_overrides, load_problem
+
+#: exceptions that are the user's input, reported as ``error: ...`` with exit code 2
+USER_ERRORS = (ProblemError, GaitDataError, OSError)
+
+
+# --------------------------------------------------------------------------------------------
+# shared helpers
+# --------------------------------------------------------------------------------------------
+def _fail(message: object, code: int = 2) -> NoReturn:
+    """Print ``error: <message>`` (one line) to stderr and exit with ``code``."""
+    text = " ".join(str(message).split()) or "unknown error"
+    print(f"error: {text}", file=sys.stderr)
+    raise SystemExit(code)
+
+
+@contextlib.contextmanager
+def _errors() -> Iterator[None]:
+    """Turn the expected user errors raised inside the block into :func:`_fail`."""
+    try:
+        yield
+    except USER_ERRORS as exc:
+        if isinstance(exc, OSError) and exc.filename is not None:
+            _fail(f"{exc.filename}: {exc.strerror or exc}")
+        _fail(exc)
+
+
+def _jsonable(obj):
+    """``obj`` with numpy types, tuples, paths and non-finite floats made JSON-safe."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.bool_ | bool):
+        return bool(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.floating | float):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    if isinstance(obj, Path):
+        return str(obj)
+    if hasattr(obj, "to_dict"):
+        return _jsonable(obj.to_dict())
+    return obj
+
+
+def _write_json(path: Path | str, data) -> Path:
+    """Write ``data`` as indented JSON (strict: NaN and inf become null)."""
+    path = Path(path)
+    path.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
+    return path
+
+
+def common_parser() -> argparse.ArgumentParser:
+    """Parent parser shared by every command: --problem, --state, --compliance, --out."""
+    parent = argparse.ArgumentParser(add_help=False)
+    g = parent.add_argument_group("problem and output")
+    g.add_argument("--problem", default="humanlike_6link", metavar="NAME_OR_PATH",
+                   help="bundled problem name or path to a problem TOML "
+                        "(default: %(default)s)")
+    g.add_argument("--state", type=Path, metavar="FILE",
+                   help="JSON/TOML table of section-state overrides (rad, rad/s), e.g. "
+                        "{\"q1\": 0.25}; a summary.json of this toolkit also works")
+    g.add_argument("--compliance", type=Path, metavar="FILE",
+                   help="JSON/TOML table of compliance overrides, e.g. {\"k_knee\": 120}")
+    g.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output directory (created if missing)")
+    return parent
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
+
+
+def load_cli_problem(args: argparse.Namespace) -> Problem:
+    """The problem named by ``--problem`` with ``--compliance`` and ``--state`` applied."""
+    problem = load_problem(args.problem)
+    comp_file = getattr(args, "compliance", None)
+    if comp_file is not None:
+        values = load_overrides(comp_file, "compliance")
+        try:
+            problem = problem.replace(compliance=values)
+        except ProblemError as exc:  # name the override file, not only the problem
+            raise ProblemError(f"{comp_file}: {exc}") from None
+    state_file = getattr(args, "state", None)
+    if state_file is not None:
+        values = load_overrides(state_file, "state")
+        try:
+            problem = problem.with_state(values)
+        except ProblemError as exc:
+            raise ProblemError(f"{state_file}: {exc}") from None
+    return problem
+
+
+def _out_dir(path: Path) -> Path:
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+# --------------------------------------------------------------------------------------------
+# pdw-simulate
+# --------------------------------------------------------------------------------------------
+def simulation_summary(problem: Problem, result, steps_requested: int | None = None) -> dict:
+    """The summary.json content of a simulation (SI units; see :func:`simulate_main`)."""
+    names = list(problem.state_names)
+    done = [s for s in result.steps if s.x_section_end is not None]
+    first = done[0] if done else None
+    poincare = [dict(zip(names, map(float, row), strict=True))
+                for row in np.atleast_2d(result.poincare_states) if len(row)]
+    residual = None
+    if first is not None:
+        residual = float(np.linalg.norm(first.x_section_end - first.x_section_start))
+    energy = [float(s.energy_residual_J) for s in done]
+    margins: dict[str, float] = {}
+    for s in result.steps:
+        for k, v in s.margins.items():
+            margins[k] = min(float(v), margins.get(k, math.inf))
+    step_time = first.step_time if first else None
+    step_length = first.step_length if first else None
+    speed = step_length / step_time if first and step_time else None
+    return {
+        "problem": {"name": problem.name, "family": problem.family,
+                    "source": problem.source, "title": problem.title},
+        "slope": problem.slope,
+        "compliance": dict(problem.compliance),
+        "initial_state": dict(problem.initial_state),
+        "steps_requested": steps_requested,
+        "completed_steps": len(done),
+        "phases": [[{"name": n, "duration_s": d} for n, d in s.phases] for s in result.steps],
+        "step_time_s": step_time,
+        "step_length_m": step_length,
+        "speed_m_s": speed,
+        "poincare_states": poincare,
+        "residual": residual,
+        "energy_balance_J": energy,
+        "energy_balance_max_abs_J": max((abs(e) for e in energy), default=None),
+        "failure": result.failure.to_dict() if result.failure else None,
+        "steps": [s.to_dict() for s in result.steps],
+        "margins": margins,
+        "units": {"angles": "rad", "rates": "rad/s", "time": "s", "length": "m",
+                  "energy": "J", "speed": "m/s"},
+    }
+
+
+def simulate_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-simulate``: simulate N steps and write trajectory, events, summary and plots.
+
+    Writes to ``--out``: ``trajectory.csv`` (one row per integration step: time, phase,
+    coordinates, velocities and outputs), ``events.csv`` (guards, mode switches, failure),
+    ``summary.json`` (phases, step time/length, speed, Poincare states, residual
+    ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
+    ``angles.png`` and ``stick.png``. A walker that falls is a result, not an error: the
+    outputs are written, ``failure`` says why, a warning goes to stderr, exit code 0.
+    """
+    parser = argparse.ArgumentParser(
+        prog="pdw-simulate", parents=[common_parser()],
+        description="Simulate steps of a passive walker from its section state.")
+    parser.add_argument("--steps", type=_positive_int, default=1, metavar="N",
+                        help="number of steps (default: %(default)s)")
+    parser.add_argument("--snapshots", type=_positive_int, default=8, metavar="K",
+                        help="stick-figure snapshots of the first step (default: %(default)s)")
+    args = parser.parse_args(argv)
+    with _errors():
+        problem = load_cli_problem(args)
+        out = _out_dir(args.out)
+        from .plots import plot_angles, plot_stick
+        from .simulate import Simulator
+
+        sim = Simulator(problem)
+        p = problem.parameter_vector()
+        result = sim.run(problem.state_vector(), p, steps=args.steps, record=True)
+        traj = result.trajectory
+        if traj is None:
+            import pandas as pd
+
+            traj = pd.DataFrame()
+        traj.to_csv(out / "trajectory.csv", index=False)
+        result.events.to_csv(out / "events.csv", index=False)
+        summary = simulation_summary(problem, result, args.steps)
+        _write_json(out / "summary.json", summary)
+        plot_angles(traj, out / "angles.png", title=f"{problem.name}: joint angles")
+        plot_stick(sim.hs, traj, p, out / "stick.png", n=args.snapshots)
+    if result.failure is not None:
+        f = result.failure
+        print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
+              f"t = {f.time:.4f} s: {f.reason}", file=sys.stderr)
+    print(f"wrote {out} ({summary['completed_steps']} of {args.steps} steps)")
+    return 0
+
+
+#: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)
+COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
+    "simulate": simulate_main,
+}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Dispatch ``python -m pdw_casadi.cli COMMAND [options]`` to a command's main."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:
+        _fail(f"usage: python -m pdw_casadi.cli {{{','.join(COMMANDS)}}} [options]; "
+              f"got {argv[0] if argv else 'no command'!r}")
+    return COMMANDS[argv[0]](argv[1:])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,244 @@
+"""Figures of a simulated gait: joint angles over time and stick-figure snapshots.
+
+Both functions take the trajectory DataFrame of :func:`pdw_casadi.simulate.simulate`
+(``SimulationResult.trajectory``) and write a PNG (matplotlib, Agg backend: no display
+needed). Angles are in degrees, time in seconds, lengths in metres.
+
+Leg naming: the model relabels its legs at every foot strike (leg 1 is always the stance
+leg at the start of a step). The angle plot follows the *physical* legs instead: leg A is
+the model's leg 1 in even steps (0, 2, ...) and its leg 2 in odd steps, so each curve is
+continuous across steps.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.colors import LinearSegmentedColormap  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+__all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_stick", "snapshot_rows"]
+
+PHASE_COLORS = {"I": "#d8e6f3", "II": "#f4f4f4", "III": "#f6e3cf"}
+LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
+
+
+def phase_spans(trajectory: pd.DataFrame) -> list[tuple[int, str, float, float]]:
+    """Contiguous (step, phase, t_start, t_end) runs of the trajectory, in time order (s).
+
+    A phase starts at the end of the previous one (the trajectory's first row of a phase is
+    one integration step after its start); the first phase of the trajectory starts at the
+    start of its step, taken as the first recorded time minus one sample.
+    """
+    if trajectory is None or trajectory.empty:
+        return []
+    t = trajectory["t"].to_numpy()
+    key = list(zip(_run_steps(trajectory), trajectory["phase"].to_numpy(), strict=True))
+    spans = []
+    start = 0
+    t_prev = t[0] - (t[1] - t[0]) if len(t) > 1 else t[0]
+    t_prev = max(t_prev, 0.0)
+    for i in range(1, len(t) + 1):
+        if i == len(t) or key[i] != key[start]:
+            spans.append((int(key[start][0]), str(key[start][1]), float(t_prev), float(t[i - 1])))
+            t_prev = t[i - 1]
+            start = i
+    return spans
+
+
+def _run_steps(trajectory: pd.DataFrame) -> np.ndarray:
+    """The step of each row, constant over each contiguous run of one phase (the step of the
+    run's first row): the state at a phase's final event belongs to that phase's step."""
+    step = trajectory["step"].to_numpy().copy()
+    phase = trajectory["phase"].to_numpy()
+    for i in range(1, len(step)):
+        if phase[i] == phase[i - 1] and step[i] != step[i - 1]:
+            step[i] = step[i - 1]
+    return step
+
+
+def physical_leg_angles(trajectory: pd.DataFrame) -> dict[str, dict[str, np.ndarray]]:
+    """Knee and hip angles (deg) of the physical legs A and B (see the module docstring)."""
+    odd = (_run_steps(trajectory) % 2) == 1
+    out: dict[str, dict[str, np.ndarray]] = {"A": {}, "B": {}}
+    for joint in ("knee", "hip"):
+        one = trajectory[f"{joint}1_deg"].to_numpy()
+        two = trajectory[f"{joint}2_deg"].to_numpy()
+        out["A"][joint] = np.where(odd, two, one)
+        out["B"][joint] = np.where(odd, one, two)
+    return out
+
+
+def _shade_phases(axes, spans, label_ax) -> None:
+    total = spans[-1][3] - spans[0][2] if spans else 0.0
+    for _step, phase, t0, t1 in spans:
+        for ax in axes:
+            ax.axvspan(t0, t1, color=PHASE_COLORS.get(phase, "#eeeeee"), zorder=0, lw=0)
+            ax.axvline(t0, color="0.6", lw=0.6, zorder=1)
+        if t1 - t0 < 0.03 * total:
+            continue  # too short to label legibly (phases I and III last a few ms)
+        label_ax.annotate(phase, xy=((t0 + t1) / 2, 1.0), xycoords=("data", "axes fraction"),
+                          xytext=(0, 2), textcoords="offset points", ha="center", va="bottom",
+                          fontsize=8, color="0.25")
+
+
+def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None) -> Path:
+    """Knee flexion and hip angle of both legs against time, phases shaded and labelled.
+
+    Knee: thigh minus shank angle (deg, flexion positive). Hip: thigh angle from the slope
+    normal (deg), as in the paper. Returns the path written.
+    """
+    path = Path(path)
+    fig, (ax_k, ax_h) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    if trajectory is None or trajectory.empty:
+        ax_k.text(0.5, 0.5, "no trajectory recorded", ha="center", transform=ax_k.transAxes)
+    else:
+        t = trajectory["t"].to_numpy()
+        legs = physical_leg_angles(trajectory)
+        spans = phase_spans(trajectory)
+        _shade_phases((ax_k, ax_h), spans, ax_k)
+        for leg, angles in legs.items():
+            ax_k.plot(t, angles["knee"], color=LEG_COLORS[leg], lw=1.4,
+                      label=f"leg {leg}" + (" (stance in step 0)" if leg == "A" else ""))
+            ax_h.plot(t, angles["hip"], color=LEG_COLORS[leg], lw=1.4, label=f"leg {leg}")
+        ax_k.set_xlim(spans[0][2], spans[-1][3])
+        ax_k.legend(loc="upper left", fontsize=8, framealpha=0.9)
+    ax_k.set_ylabel("knee flexion [deg]")
+    ax_h.set_ylabel("hip: thigh from slope normal [deg]")
+    ax_h.set_xlabel("time [s]")
+    for ax in (ax_k, ax_h):
+        ax.grid(True, lw=0.4, alpha=0.6)
+    fig.suptitle(title or "Joint angles; shaded: phase I (blue, foot flat + trailing toe), "
+                 "II (grey, swing), III (orange, toe + heel pivots)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _full_state(row: pd.Series, q_names, nx: int) -> np.ndarray:
+    q = [row[n] for n in q_names]
+    qd = [row["d" + n] for n in q_names]
+    x = np.zeros(nx)
+    x[: 2 * len(q)] = np.concatenate([q, qd])
+    if "damping_work_J" in row:
+        x[-1] = row["damping_work_J"]
+    return x
+
+
+def snapshot_rows(trajectory: pd.DataFrame, step: int | None = None, n: int = 8) -> list[int]:
+    """Row indices of ``n`` snapshots of one step: evenly spaced in time, always including
+    the step's first row and the end of every phase (toe-off, heel strike, foot strike)."""
+    steps = _run_steps(trajectory)
+    if step is None:
+        step = int(steps.min())
+    sel = trajectory.index[steps == step].to_numpy()
+    if sel.size == 0:
+        return []
+    t = trajectory.loc[sel, "t"].to_numpy()
+    ph = trajectory.loc[sel, "phase"].to_numpy()
+    keys = {0, sel.size - 1}
+    keys |= {i for i in range(sel.size - 1) if ph[i] != ph[i + 1]}
+    picks = set(keys)
+    extra = max(n - len(picks), 0)
+    for target in np.linspace(t[0], t[-1], extra + 2)[1:-1]:
+        free = [i for i in range(sel.size) if i not in picks]
+        if not free:
+            break
+        picks.add(min(free, key=lambda i: abs(t[i] - target)))
+    return [int(sel[i]) for i in sorted(picks)]
+
+
+def _draw_walker(ax, pts: dict[str, np.ndarray], links, color, lw=1.6, alpha=1.0) -> None:
+    for a, b in links:
+        foot = a.startswith(("toe", "heel")) and b.startswith(("toe", "heel"))
+        ax.plot([pts[a][0], pts[b][0]], [pts[a][1], pts[b][1]], color=color,
+                lw=lw * (1.8 if foot else 1.0), alpha=alpha, solid_capstyle="round")
+    for name in ("knee1", "knee2", "ankle1", "ankle2"):
+        if name in pts:
+            ax.plot(*pts[name], "o", ms=3.2, color=color, alpha=alpha, mfc="white", mew=1.0)
+    if "hip" in pts:
+        ax.plot(*pts["hip"], "o", ms=6.5, color=color, alpha=alpha)
+
+
+def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | None = None,
+               title: str | None = None) -> Path:
+    """Stick-figure snapshots of one step (default: the first in ``trajectory``).
+
+    Top: the snapshots where they are (the stance toe stays at the origin during a step),
+    coloured by time. Bottom: the same snapshots side by side along the slope (a film strip,
+    each labelled with its time and phase). Feet are drawn thick, knees and ankles as open
+    circles, the hip as a dot; the sloped ground y = -x tan(gamma) is the black line.
+    ``p``: the parameter vector (compliance..., slope) used for the simulation.
+    """
+    path = Path(path)
+    p = np.asarray(p, dtype=float).ravel()
+    gamma = float(p[-1])
+    fig, (ax_o, ax_f) = plt.subplots(2, 1, figsize=(12, 8),
+                                     gridspec_kw={"height_ratios": [1.4, 1.0]})
+    rows = [] if trajectory is None or trajectory.empty else snapshot_rows(trajectory, step, n)
+    if not rows:
+        ax_o.text(0.5, 0.5, "no trajectory recorded", ha="center", transform=ax_o.transAxes)
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        return path
+    q_names = list(hs.model.q_names)
+    names = list(hs.point_names)
+    links = list(hs.model.links)
+    snaps = []
+    for r in rows:
+        row = trajectory.loc[r]
+        P = hs.points(_full_state(row, q_names, hs.nx), p).full()
+        snaps.append((float(row["t"]), str(row["phase"]), dict(zip(names, P.T, strict=True))))
+    t0, t1 = snaps[0][0], snaps[-1][0]
+    cmap = LinearSegmentedColormap.from_list(
+        "viridis_dark", plt.get_cmap("viridis")(np.linspace(0.0, 0.85, 64)))
+    tang = np.array([np.cos(gamma), -np.sin(gamma)])
+
+    # overlay at true positions
+    allpts = np.array([pt for _, _, pts in snaps for pt in pts.values()])
+    for t, _ph, pts in snaps:
+        c = cmap((t - t0) / (t1 - t0 if t1 > t0 else 1.0))
+        _draw_walker(ax_o, pts, links, c)
+    xlo, xhi = allpts[:, 0].min() - 0.15, allpts[:, 0].max() + 0.15
+    xs = np.array([xlo, xhi])
+    ax_o.plot(xs, -xs * np.tan(gamma), color="k", lw=1.2)
+    ax_o.fill_between(xs, -xs * np.tan(gamma), -xs * np.tan(gamma) - 0.05, color="0.85")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(t0, max(t1, t0 + 1e-9)))
+    fig.colorbar(sm, ax=ax_o, label="time t [s]", fraction=0.03, pad=0.01)
+    ax_o.set_aspect("equal", adjustable="datalim")
+    ax_o.set_xlabel("x [m]")
+    ax_o.set_ylabel("y [m]")
+    ax_o.set_title("snapshots at their true positions (stance toe at the origin)", fontsize=9)
+
+    # film strip: snapshot k shifted by k * spacing along the slope
+    width = max(float(np.ptp(np.array(list(pts.values())) @ tang)) for _, _, pts in snaps)
+    spacing = 1.2 * width
+    for k, (t, ph, pts) in enumerate(snaps):
+        shift = k * spacing * tang
+        moved = {name: pt + shift for name, pt in pts.items()}
+        c = cmap((t - t0) / (t1 - t0 if t1 > t0 else 1.0))
+        _draw_walker(ax_f, moved, links, c)
+        top = max(pt[1] for pt in moved.values())
+        ax_f.text(moved["hip"][0], top + 0.06, f"t = {t:.3f} s\n{ph}", ha="center",
+                  va="bottom", fontsize=7)
+    xf = np.array([xlo, xhi + (len(snaps) - 1) * spacing * tang[0]])
+    ax_f.plot(xf, -xf * np.tan(gamma), color="k", lw=1.2)
+    ax_f.set_aspect("equal")
+    ax_f.set_xlabel(f"x [m] (snapshots shifted by {spacing:.2f} m along the slope)")
+    ax_f.set_ylabel("y [m]")
+    ax_f.set_title("film strip (simulation time, phase)", fontsize=9)
+    for ax in (ax_o, ax_f):
+        ax.grid(True, lw=0.4, alpha=0.5)
+    fig.suptitle(title or f"One step on a slope of {gamma:.4f} rad "
+                 f"({np.degrees(gamma):.2f} deg)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

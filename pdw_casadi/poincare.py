@@ -1,0 +1,247 @@
+"""The Poincare map of a walker and its exact algorithmic-differentiation Jacobian.
+
+P(x, p) maps the section state x (e.g. Table 2's 7 values) to the same state one step later.
+It is the discrete map the event-driven simulator computes: RK4 steps of size h, partial
+steps tau ending on events, impact maps and the leg swap. Its Jacobian is the exact
+derivative of that discrete map: the simulator's plan (the sequence of full and partial
+steps) is replayed with forward sensitivities S = dx/d(x0, p) chained through every RK4 stage
+(CasADi AD of the right-hand side), and every event time tau(x0, p) is differentiated by the
+implicit function theorem on its guard g(x(tau)) = 0, which adds the saltation term
+f(tau) dtau/dz. The same chain gives the derivative of the step time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .compile import Lazy
+from .hybrid import HybridSystem
+from .simulate import Segment, SimulationResult, Simulator
+from .system import hybrid_system
+
+_SENS_CHUNKS = (32, 8, 1)
+
+
+class PoincareError(RuntimeError):
+    """The step from this state does not complete (the gait fails); ``failure`` says why."""
+
+    def __init__(self, failure):
+        super().__init__(f"step failed: {failure.reason} in phase {failure.phase} at "
+                         f"t = {failure.time:.4f} s")
+        self.failure = failure
+
+
+@dataclass
+class MapResult:
+    """P(x, p) with exact derivatives: ``x_next``, ``dx`` = dP/dx, ``dp`` = dP/dp,
+    ``step_time`` (s) and its gradients ``dT_dx``, ``dT_dp``; ``sim`` the simulation."""
+
+    x_next: np.ndarray
+    dx: np.ndarray | None
+    dp: np.ndarray | None
+    step_time: float
+    dT_dx: np.ndarray | None
+    dT_dp: np.ndarray | None
+    sim: SimulationResult
+
+
+class _Sensitivities:
+    """CasADi functions propagating S = dx/dz through RK4 steps, built once per walker."""
+
+    def __init__(self, hs: HybridSystem):
+        model = hs.model
+        ns = len(model.state_names)
+        nx, npar, nm = hs.nx, hs.np, hs.nm
+        nz = ns + npar
+        self.ns, self.nz = ns, nz
+        x, p, m = ca.SX.sym("x", nx), model.p, model.m
+        xs = ca.SX.sym("xs", ns)
+        x0 = model.section_to_full(xs, p)
+        self.section = Lazy(ca.Function("section_jac", [xs, p], [
+            x0, ca.horzcat(ca.jacobian(x0, xs), ca.jacobian(x0, p))]))
+        xf = ca.SX.sym("xf", nx)
+        self.section_out = ca.Function("section_out_jac", [xf], [
+            ca.jacobian(model.full_to_section(xf), xf)])
+        Sp = ca.DM(ca.horzcat(ca.DM.zeros(npar, ns), ca.DM.eye(npar)))
+        self.Sp = np.asarray(Sp)
+        self.chunks, self.partial = {}, {}
+        for name, rhs in hs.rhs.items():
+            xdot = rhs(x, p, m)
+            jac = ca.Function(f"rhs_jac_{name}", [x, p, m],
+                              [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+            X, S = ca.MX.sym("X", nx), ca.MX.sym("S", nx * nz)
+            H, P, M = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm)
+            Sm = ca.reshape(S, nx, nz)
+
+            def f(xx, ss, jac=jac, P=P, M=M):
+                k, A, B = jac(xx, P, M)
+                return k, ca.mtimes(A, ss) + ca.mtimes(B, Sp)
+
+            k1, d1 = f(X, Sm)
+            k2, d2 = f(X + H / 2 * k1, Sm + H / 2 * d1)
+            k3, d3 = f(X + H / 2 * k2, Sm + H / 2 * d2)
+            k4, d4 = f(X + H * k3, Sm + H * d3)
+            Xn = X + H / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            Sn = Sm + H / 6 * (d1 + 2 * d2 + 2 * d3 + d4)
+            one = ca.Function(f"sens_{name}", [X, S, H, P, M],
+                              [ca.vertcat(Xn, ca.reshape(Sn, -1, 1))])
+            # partial step: also d x_next / d h (the flow at the event, for the saltation term)
+            self.partial[name] = Lazy(ca.Function(
+                f"sens_partial_{name}", [X, S, H, P, M],
+                [Xn, ca.reshape(Sn, -1, 1), ca.jacobian(Xn, H)]))
+            Z = ca.MX.sym("Z", nx + nx * nz)
+            step1 = ca.Function(f"sens1_{name}", [Z, H, P, M],
+                                [one(Z[:nx], Z[nx:], H, P, M)])
+            for k in _SENS_CHUNKS:
+                acc = step1.mapaccum(f"sens{k}_{name}", k) if k > 1 else step1
+                self.chunks[(name, k)] = Lazy(ca.Function(
+                    f"sensacc{k}_{name}", [Z, H, P, M], [acc(Z, H, P, M)[:, -1]]), ("-O1",))
+
+
+_SENS: dict[int, _Sensitivities] = {}
+
+
+def _sens(hs: HybridSystem) -> _Sensitivities:
+    if id(hs) not in _SENS:
+        _SENS[id(hs)] = _Sensitivities(hs)
+    return _SENS[id(hs)]
+
+
+class PoincareMap:
+    """P(x, p) of a problem's walker: value, exact Jacobians, and a CasADi-function view."""
+
+    def __init__(self, problem):
+        self.problem = problem
+        self.hs = hybrid_system(problem)
+        self.sim = Simulator(problem, self.hs)
+        self.state_names = self.hs.model.state_names
+        self.parameter_names = self.hs.model.parameter_names
+
+    def __call__(self, x, p=None) -> np.ndarray:
+        """P(x, p): the section state one step later (rad, rad/s)."""
+        return self.evaluate(x, p, jacobian=False).x_next
+
+    def evaluate(self, x, p=None, jacobian: bool = True, record: bool = False) -> MapResult:
+        """Simulate one step from section state ``x``; with ``jacobian`` also dP/dx, dP/dp."""
+        p = self.problem.parameter_vector() if p is None else np.asarray(p, float).ravel()
+        x = np.asarray(x, float).ravel()
+        res = self.sim.run(x, p, steps=1, record=record)
+        if res.failure is not None:
+            raise PoincareError(res.failure)
+        sr = res.steps[0]
+        if not jacobian:
+            return MapResult(sr.x_section_end, None, None, sr.step_time, None, None, res)
+        x_end, S, dT = self._replay(sr.plan, x, p)
+        ns = len(x)
+        return MapResult(x_end, S[:, :ns], S[:, ns:], sr.step_time, dT[:ns], dT[ns:], res)
+
+    def _replay(self, plan, xs, p):
+        """Re-run the discrete map of ``plan`` with forward sensitivities (exact AD)."""
+        hs, sens = self.hs, _sens(self.hs)
+        nx, nz = hs.nx, sens.nz
+        x, S = (np.asarray(v) for v in sens.section(xs, p))
+        x = x.ravel()
+        dT = np.zeros(nz)
+        for item in plan.items:
+            if isinstance(item, Segment):
+                x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
+            else:
+                name = item[1]
+                xp, Jx, Jp = (np.asarray(v) for v in hs.impact_jac[name](x, p))
+                S = Jx @ S + Jp @ sens.Sp
+                x = xp.ravel()
+        J_out = np.asarray(sens.section_out(x))
+        return np.asarray(hs.model.full_to_section(x)).ravel(), J_out @ S, dT
+
+    def _segment(self, seg: Segment, x, S, dT, p, sens, nx, nz):
+        mv = list(seg.mode)
+        z = np.concatenate([x, S.ravel(order="F")])
+        n = seg.n
+        for k in _SENS_CHUNKS:
+            while n >= k:
+                z = np.asarray(sens.chunks[(seg.phase, k)](z, seg.h, p, mv)).ravel()
+                n -= k
+        x, S = z[:nx], z[nx:].reshape((nx, nz), order="F")
+        xe, Se, fh = (np.asarray(v) for v in sens.partial[seg.phase](
+            x, S.ravel(order="F"), seg.tau, p, mv))
+        xe, Se, fh = xe.ravel(), Se.reshape((nx, nz), order="F"), fh.ravel()
+        g, gx, gp = (np.asarray(v) for v in self.hs.event_jac[seg.phase](xe, p, mv))
+        i = seg.event
+        dg = gx[i] @ Se + gp[i] @ sens.Sp
+        dtau = -dg / (gx[i] @ fh)
+        return xe, Se + np.outer(fh, dtau), dT + dtau
+
+    def jacobian(self, x, p=None):
+        """(P(x, p), dP/dx, dP/dp) with exact AD derivatives."""
+        r = self.evaluate(x, p)
+        return r.x_next, r.dx, r.dp
+
+    def as_casadi(self) -> ca.Function:
+        """P as a CasADi function of (x, p) with exact Jacobian (for NLPs and rootfinders)."""
+        return _PoincareCallback("poincare_map", self)
+
+
+class _PoincareCallback(ca.Callback):
+    def __init__(self, name, pmap: PoincareMap):
+        ca.Callback.__init__(self)
+        self.pmap = pmap
+        self.nx = len(pmap.state_names)
+        self.np_ = len(pmap.parameter_names)
+        self.construct(name, {"enable_fd": False})
+
+    def get_n_in(self):
+        return 2
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.nx if i == 0 else self.np_, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(self.nx, 1)
+
+    def eval(self, arg):
+        return [self.pmap(np.asarray(arg[0]).ravel(), np.asarray(arg[1]).ravel())]
+
+    def has_jacobian(self):
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        outer = self
+
+        class Jac(ca.Callback):
+            def __init__(self):
+                ca.Callback.__init__(self)
+                self.construct(name, opts)
+
+            def get_n_in(self):
+                return 3
+
+            def get_n_out(self):
+                return 2
+
+            def get_sparsity_in(self, i):
+                return [ca.Sparsity.dense(outer.nx, 1), ca.Sparsity.dense(outer.np_, 1),
+                        ca.Sparsity.dense(outer.nx, 1)][i]
+
+            def get_sparsity_out(self, i):
+                return ca.Sparsity.dense(outer.nx, outer.nx if i == 0 else outer.np_)
+
+            def eval(self, arg):
+                _, jx, jp = outer.pmap.jacobian(np.asarray(arg[0]).ravel(),
+                                                np.asarray(arg[1]).ravel())
+                return [jx, jp]
+
+        self._jac = Jac()
+        return self._jac
+
+
+def poincare_map(problem) -> PoincareMap:
+    """The Poincare map of ``problem``'s walker (see :class:`PoincareMap`)."""
+    from .problem import Problem, load_problem
+
+    return PoincareMap(problem if isinstance(problem, Problem) else load_problem(problem))

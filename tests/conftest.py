@@ -1,0 +1,98 @@
+"""Shared fixtures: the bundled problem, its hybrid system and one recorded Table-2 step.
+
+The first use of the hybrid system compiles its CasADi functions to C (about 30 s, cached in
+``~/.cache/pdw_casadi``); every later session reuses the cached libraries.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pandas as pd
+import pytest
+
+from pdw_casadi.problem import load_problem
+from pdw_casadi.simulate import simulate
+from pdw_casadi.system import hybrid_system
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = ROOT / "scripts"
+
+
+@pytest.fixture(scope="session")
+def problem():
+    """The bundled humanlike 6-link problem: Table 1 body, Table 3 compliance, slope 0.1484,
+    Table 2 section state."""
+    return load_problem("humanlike_6link")
+
+
+@pytest.fixture(scope="session")
+def hs(problem):
+    return hybrid_system(problem)
+
+
+@pytest.fixture(scope="session")
+def params(problem) -> np.ndarray:
+    """Parameter vector p = compliance (Table 3) + slope."""
+    return problem.parameter_vector()
+
+
+@pytest.fixture(scope="session")
+def table2_step(problem):
+    """One recorded step from the Table 2 state (SimulationResult)."""
+    return simulate(problem, steps=1, record=True)
+
+
+@pytest.fixture(scope="session")
+def numpy_walker():
+    """The independent numpy/scipy implementation ``scripts/numpy_walker.py`` (a module)."""
+    if str(SCRIPTS) not in sys.path:
+        sys.path.insert(0, str(SCRIPTS))
+    import numpy_walker
+
+    return numpy_walker
+
+
+# -- helpers ---------------------------------------------------------------------------------
+def full_states(hs, frame: pd.DataFrame) -> np.ndarray:
+    """Full states x = [q; qd; W] (columns) of the trajectory rows in ``frame``."""
+    names = list(hs.model.q_names)
+    q = frame[names].to_numpy().T
+    qd = frame[["d" + n for n in names]].to_numpy().T
+    return np.vstack([q, qd, frame["damping_work_J"].to_numpy()[None, :]])
+
+
+def phase_runs(frame: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """The trajectory split into contiguous runs of one phase, in time order.
+
+    (Runs, not the ``step`` column: the state at a phase's final event belongs to that run.)
+    """
+    phase = frame["phase"].to_numpy()
+    cuts = [0, *(np.flatnonzero(phase[1:] != phase[:-1]) + 1), len(phase)]
+    return [(str(phase[a]), frame.iloc[a:b]) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+
+
+@pytest.fixture(scope="session")
+def contact_funs(hs):
+    """phase -> CasADi function (x, p) -> (constraint rows eps(q), E(q) qd) of its contact set."""
+    q, qd = hs.model.system.q, hs.model.system.qd
+    x, p = hs.x_sym, hs.model.p
+    out = {}
+    for name, ph in hs.phases.items():
+        rows = ph.contact.rows
+        E = ca.jacobian(rows, q)
+        out[name] = ca.Function(f"contact_{name}", [x, p],
+                                [hs.subs_x(rows), hs.subs_x(ca.mtimes(E, qd))])
+    return out
+
+
+@pytest.fixture(scope="session")
+def impact_states(hs, table2_step, params):
+    """Pre-impact full states of the Table-2 step: {"heel_strike": x-, "foot_strike": x-}."""
+    runs = dict(phase_runs(table2_step.trajectory))
+    assert set(runs) == {"I", "II", "III"}
+    return {tr.name: full_states(hs, runs[tr.source].iloc[[-1]])[:, 0]
+            for tr in hs.model.transitions if tr.name != "toe_off"}
