@@ -33,25 +33,30 @@ def compiler() -> str | None:
     return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
 
 
-def compiled(fun: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> ca.Function:
+def compiled(fun, flags: tuple[str, ...] = ("-O1",)):
     """``fun`` compiled to a cached shared library (or ``fun`` itself if no compiler).
 
+    ``fun`` may be a list of functions: they go into one library, so that functions they
+    share (a right-hand side and its Jacobian) are compiled once; a list is returned.
     ``-O1`` pays off for functions that loop internally (a chunk of steps); for large
     straight-line expressions gcc's optimiser costs minutes for little gain, use ``-O0``.
     """
+    funs = list(fun) if isinstance(fun, list | tuple) else [fun]
     cc = compiler()
     if cc is None:
-        return fun
-    key = hashlib.sha1((fun.serialize() + " ".join(flags) + ca.__version__).encode())
-    name = fun.name()
-    so = cache_dir() / f"{name}_{key.hexdigest()[:20]}.so"
+        return funs if isinstance(fun, list | tuple) else fun
+    text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
+    key = hashlib.sha1(text.encode()).hexdigest()[:20]
+    name = funs[0].name()
+    so = cache_dir() / f"{name}_{key}.so"
     with _LOCK:
         if not so.exists():
             so.parent.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=so.parent) as tmp:
                 src = f"{name}.c"
                 cg = ca.CodeGenerator(src, {"with_header": False})
-                cg.add(fun)
+                for f in funs:
+                    cg.add(f)
                 cg.generate(tmp + os.sep)
                 out = Path(tmp) / f"{name}.so"
                 res = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(out),
@@ -59,7 +64,29 @@ def compiled(fun: ca.Function, flags: tuple[str, ...] = ("-O1",)) -> ca.Function
                 if res.returncode != 0:
                     return fun
                 os.replace(out, so)  # atomic: concurrent processes never see half a file
-    return ca.external(name, str(so))
+    ext = [ca.external(f.name(), str(so)) for f in funs]
+    return ext if isinstance(fun, list | tuple) else ext[0]
+
+
+class LazyGroup:
+    """Functions compiled together into one library on the first call of any of them."""
+
+    def __init__(self, funs: dict, flags: tuple[str, ...] = ("-O0",)):
+        self.funs = funs
+        self.flags = flags
+        self._fast: dict | None = None
+
+    def __getitem__(self, key):
+        group = self
+
+        def call(*args):
+            if group._fast is None:
+                keys = list(group.funs)
+                group._fast = dict(zip(keys, compiled([group.funs[k] for k in keys],
+                                                      group.flags), strict=True))
+            return group._fast[key](*args)
+
+        return call
 
 
 class Lazy:

@@ -218,7 +218,7 @@ class HybridSystem:
             x_plus = subs_x(ca.vertcat(q_new, qd_new, 0)) + ca.vertcat(
                 ca.SX(2 * self.nq, 1), x[-1])
             # x_post: post-impact state before relabelling (same frame, for energy balances)
-            x_post = subs_x(ca.vertcat(q, tr.qd_plus)) 
+            x_post = subs_x(ca.vertcat(q, tr.qd_plus))
             x_post = ca.vertcat(x_post, x[-1])
             self.impact[tr.name] = ca.Function(
                 f"impact_{tr.name}", [x, p],

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .compile import Lazy
+from .compile import Lazy, LazyGroup
 from .hybrid import HybridSystem
 from .simulate import Segment, SimulationResult, Simulator
 from .system import hybrid_system
@@ -89,16 +89,20 @@ class _Sensitivities:
             one = ca.Function(f"sens_{name}", [X, S, H, P, M],
                               [ca.vertcat(Xn, ca.reshape(Sn, -1, 1))])
             # partial step: also d x_next / d h (the flow at the event, for the saltation term)
-            self.partial[name] = Lazy(ca.Function(
+            group = {"partial": ca.Function(
                 f"sens_partial_{name}", [X, S, H, P, M],
-                [Xn, ca.reshape(Sn, -1, 1), ca.jacobian(Xn, H)]))
+                [Xn, ca.reshape(Sn, -1, 1), ca.jacobian(Xn, H)])}
             Z = ca.MX.sym("Z", nx + nx * nz)
             step1 = ca.Function(f"sens1_{name}", [Z, H, P, M],
                                 [one(Z[:nx], Z[nx:], H, P, M)])
             for k in _SENS_CHUNKS:
                 acc = step1.mapaccum(f"sens{k}_{name}", k) if k > 1 else step1
-                self.chunks[(name, k)] = Lazy(ca.Function(
-                    f"sensacc{k}_{name}", [Z, H, P, M], [acc(Z, H, P, M)[:, -1]]), ("-O1",))
+                group[k] = ca.Function(
+                    f"sensacc{k}_{name}", [Z, H, P, M], [acc(Z, H, P, M)[:, -1]])
+            lazy = LazyGroup(group, ("-O0",))
+            self.partial[name] = lazy["partial"]
+            for k in _SENS_CHUNKS:
+                self.chunks[(name, k)] = lazy[k]
 
 
 _SENS: dict[int, _Sensitivities] = {}

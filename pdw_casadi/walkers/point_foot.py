@@ -26,7 +26,8 @@ q_sw + 2 slope, and the guard is the factor L sin(S/2) (the foot height divided 
 factor, which is positive once the swing leg is ahead). It vanishes exactly when the foot is
 on the ground except where the legs pass each other, so the classic mid-stance scuff of the
 rigid compass gait is ignored (as in the literature) and cannot end the step; ``arm_above``
-skips the zero at the section itself, and ``require`` checks that the swing foot is ahead.
+(``ARM`` L) skips the zero at the section itself, and ``require`` checks that the swing foot
+is ahead.
 
 Section states (just after heel strike, new stance foot at the origin): compass gait
 (q_st, q_sw, dq_st, dq_sw); kneed walker (q_st, q_sw, dq_st, dq_sw_thigh, dq_sw_shank) with
@@ -46,6 +47,10 @@ from ..hybrid import FAILURE, GUARD, Event, WalkerModel, make_phase, make_transi
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 
 DEG = 180 / math.pi
+#: the heel-strike guard L sin(S/2) counts only once it has exceeded ARM * L in the phase
+#: (S > ~0.02 rad): the section itself (S = 0) and section states slightly off the ground
+#: (Newton iterates, finite differences) must not end the step at once
+ARM = 0.01
 
 
 def _height(point, n):
@@ -123,7 +128,7 @@ def build_compass_gait(problem) -> WalkerModel:
         Event("heel_strike", _strike_guard(q_st, q_sw, gamma, leg), -1, GUARD,
               "swing foot reaches the ground ahead of the stance foot (mid-stance scuff "
               "ignored)", require=ca.dot(foot2 - foot1, t_slope),
-              require_reason="heel_strike_behind", arm_above=1e-9),
+              require_reason="heel_strike_behind", arm_above=ARM * leg),
         Event("fall", _height(hip, n) - 0.5 * leg, -1, FAILURE, "hip below half the leg"),
     ]
     tr = make_transition(sysm, "heel_strike", "swing", "swing", strike, ends_step=True)
@@ -224,7 +229,7 @@ def build_kneed_walker(problem) -> WalkerModel:
         Event("heel_strike", _strike_guard(q1, q3, gamma, leg), -1, GUARD,
               "swing foot reaches the ground ahead of the stance foot",
               require=ca.dot(foot2 - foot1, t_slope), require_reason="heel_strike_behind",
-              arm_above=1e-9),
+              arm_above=ARM * leg),
         fall,
     ]
 
