@@ -231,9 +231,58 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+def fixed_point_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-fixed-point``: find a periodic gait, its eigenvalues and validity margins.
+
+    Writes ``summary.json`` (fixed_point, residual, iterations, eigenvalues as [re, im],
+    spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
+    failure, distance_from_initial, wall_time_s) and ``limit_cycle.png`` (paper's Fig. 4).
+    """
+    parser = argparse.ArgumentParser(
+        prog="pdw-fixed-point", parents=[common_parser()],
+        description="Newton on the Poincare map with its exact AD Jacobian.")
+    parser.add_argument("--tol", type=float, default=1e-10,
+                        help="|P(x) - x| to reach (default: %(default)s)")
+    args = parser.parse_args(argv)
+    with _errors():
+        import numpy as np
+
+        from .fixed_point import find_fixed_point
+        from .plots import plot_limit_cycle
+        from .simulate import Simulator
+
+        problem = load_cli_problem(args)
+        out = _out_dir(args.out)
+        print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
+              file=sys.stderr)
+        res = find_fixed_point(problem, tol=args.tol, verbose=True)
+        summary = res.to_dict()
+        summary["distance_from_initial"] = float(
+            np.linalg.norm(res.state - problem.state_vector()))
+        summary["problem"] = problem.name
+        summary["initial_state"] = dict(problem.initial_state)
+        _write_json(out / "summary.json", summary)
+        if res.converged:
+            sim = Simulator(problem)
+            two = sim.run(res.state, res.parameters, steps=2, record=True)
+            legs = getattr(sim.hs.model, "limit_cycle_legs", None) or (("q1", "q2"),
+                                                                         ("q4", "q3"))
+            plot_limit_cycle(two.trajectory, out / "limit_cycle.png", legs=legs,
+                             title=f"{problem.name}: limit cycle of one leg over two steps")
+    ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
+    print(f"converged={res.converged} residual={res.residual:.2e} iterations={res.iterations} "
+          f"spectral radius={res.spectral_radius:.4f} "
+          f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
+          f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
+    print(f"eigenvalues: {ev}")
+    print(f"wrote {out}")
+    return 0 if res.converged else 1
+
+
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)
 COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "simulate": simulate_main,
+    "fixed-point": fixed_point_main,
 }
 
 

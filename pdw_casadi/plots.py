@@ -242,3 +242,49 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | No
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=(("q1", "q2"), ("q4", "q3")),
+                     title: str | None = None) -> Path:
+    """The paper's Fig. 4: shank (a) and thigh (b) phase portraits of one leg over two steps.
+
+    ``trajectory`` holds (at least) two steps from a fixed point; the physical leg is leg 1
+    (stance) in step 0 and leg 2 (swing) in step 1, given as (shank, thigh) coordinate
+    names per step. Key instants of each step are marked: a+ (after foot strike), b
+    (toe-off), c- / c+ (heel strike), a- (before foot strike). Angles in rad, rates in rad/s.
+    """
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    colors = ("tab:blue", "tab:orange")
+    for k, (shank, thigh) in enumerate(legs):
+        seg = trajectory[trajectory["step"] == k]
+        if seg.empty:
+            continue
+        role = "stance" if k == 0 else "swing"
+        for ax, name in zip(axes, (shank, thigh), strict=True):
+            ax.plot(seg[name], seg["d" + name], color=colors[k % 2], lw=1.4,
+                    label=f"step {k + 1} ({role})")
+            ph = seg["phase"].to_numpy()
+            rows = {"a+": 0, "a-": len(seg) - 1}
+            change = np.flatnonzero(ph[1:] != ph[:-1])
+            if len(change) >= 1:
+                rows["b"] = int(change[0])
+            if len(change) >= 2:
+                rows["c-"], rows["c+"] = int(change[1]), int(change[1]) + 1
+            for lab, i in rows.items():
+                xv, yv = seg[name].iloc[i], seg["d" + name].iloc[i]
+                ax.plot(xv, yv, "o", color="k", ms=3.5)
+                ax.annotate(lab, (xv, yv), textcoords="offset points", xytext=(4, 4),
+                            fontsize=8)
+    for ax, what in zip(axes, ("(a) shank", "(b) thigh"), strict=True):
+        ax.set_xlabel("absolute angle (rad)")
+        ax.set_ylabel("angular velocity (rad/s)")
+        ax.set_title(what)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

@@ -141,6 +141,7 @@ class Simulator:
     """Event-driven simulation of one walker; keeps CasADi functions, reused across calls."""
 
     def __init__(self, problem, hs: HybridSystem | None = None):
+        self._step = 0
         self.problem = problem
         self.hs = hs or hybrid_system(problem)
         self.h = float(problem.numerics["step_size"])
@@ -182,6 +183,9 @@ class Simulator:
         evs = hs.event_list[phase]
         mode = hs.refresh_indicators(phase, x, p, mode)
         mv = hs.mode_vector(mode)
+        if rec is not None:
+            rec.append((phase, mv, np.array([t0]), np.asarray(x, float).reshape(-1, 1),
+                        self._step))
         enabled = [e.enabled(mode) for e in evs]
         g_prev = hs.events[phase](x, p, mv).full().ravel()
         arm = np.array([e.arm_above for e in evs])
@@ -217,7 +221,7 @@ class Simulator:
                         hits.append(i)
             if hit_k is None:
                 if rec is not None:
-                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X))
+                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, self._step))
                 x, g_prev = X[:, -1], G[:, -1]
                 armed |= (G > arm[:, None]).any(axis=1)
                 t += K * h
@@ -227,7 +231,8 @@ class Simulator:
                 continue
             x_before = X[:, hit_k - 1] if hit_k > 0 else np.asarray(x).ravel()
             if rec is not None and hit_k > 0:
-                rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k]))
+                rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k],
+                            self._step))
             t += hit_k * h
             n_full += hit_k
             taus = [(self._locate(phase, x_before, p, mv, i, h), i) for i in hits]
@@ -238,7 +243,7 @@ class Simulator:
             ev = evs[idx]
             sign = 1 if g_prev_sign(Gp[idx, hit_k]) < 0 else -1
             if rec is not None:
-                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None]))
+                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], self._step))
             plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, idx, sign))
             n_full = 0
             if ev.kind == FAILURE:
@@ -292,6 +297,7 @@ class Simulator:
             if not np.all(np.isfinite(x)):
                 failure = Failure("non_finite_state", k, t, first)
                 break
+            self._step = k
             sr = StepRecord(k, t, [], xs.copy())
             mode = hs.refresh_indicators(first, x, p, mode)
             sr.energy_start_J = self._energy(x, p, hs.mode_vector(mode))
@@ -308,7 +314,7 @@ class Simulator:
                     event_rows.append({"step": k, "phase": ph, "event": name, "t": te,
                                        "kind": "switch"})
                 self._switches = []
-                self._phase_margins(phase, rec, n_rec, p, margins)
+                self._phase_margins(phase, rec, n_rec, p, margins, t, dt)
                 t += dt
                 sr.phases.append((phase, dt))
                 if fail is not None:
@@ -361,32 +367,35 @@ class Simulator:
         ev = pd.DataFrame(event_rows, columns=["step", "phase", "event", "t", "kind"])
         return SimulationResult(traj, ev, records, failure, model.state_names, x, mode)
 
-    def _phase_margins(self, phase, rec, n_rec, p, margins):
-        """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase."""
+    def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
+        """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
+
+        Clearance counts after the first 20 % of the phase (the swing toe starts on the
+        ground at toe-off).
+        """
         if rec is None:
             return
         names = self.hs.output_names[phase]
-        for ph, mv, _, X in rec[n_rec:]:
+        for ph, mv, ts, X, _ in rec[n_rec:]:
             out = self.hs.outputs[ph](X, p, mv).full()
+            late = ts >= t0 + 0.2 * dt
             for j, name in enumerate(names):
-                key = None
-                if name.startswith("N_"):
-                    key, val = f"{phase}:min_{name}", out[j].min()
-                elif name.startswith("copmargin_"):
-                    key, val = f"{phase}:min_{name}", out[j].min()
-                elif name.startswith("clearance_"):
-                    key, val = f"{phase}:min_{name}", out[j].min()
-                if key is not None:
-                    margins[key] = float(min(val, margins.get(key, math.inf)))
+                vals = out[j]
+                if name.startswith("clearance_"):
+                    vals = vals[late]
+                elif not name.startswith(("N_", "copmargin_")):
+                    continue
+                if vals.size:
+                    key = f"{phase}:min_{name}"
+                    margins[key] = float(min(vals.min(), margins.get(key, math.inf)))
 
     def _trajectory(self, rec, records, p) -> pd.DataFrame:
         hs = self.hs
-        q_names = [f"{n}" for n in _q_names(hs)]
+        q_names = _q_names(hs)
         frames = []
-        starts = [r.t_start for r in records]
-        for ph, mv, ts, X in rec:
+        for ph, mv, ts, X, k in rec:
             out = hs.outputs[ph](X, p, mv).full()
-            data = {"t": ts, "phase": ph}
+            data = {"t": ts, "step": k, "phase": ph}
             for j, n in enumerate(q_names):
                 data[n] = X[j]
                 data["d" + n] = X[hs.nq + j]
@@ -396,9 +405,7 @@ class Simulator:
             frames.append(pd.DataFrame(data))
         if not frames:
             return pd.DataFrame()
-        df = pd.concat(frames, ignore_index=True)
-        df.insert(1, "step", np.searchsorted(starts, df["t"].to_numpy(), side="right") - 1)
-        return df
+        return pd.concat(frames, ignore_index=True)
 
 
 def g_prev_sign(v: float) -> int:

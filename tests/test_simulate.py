@@ -265,7 +265,7 @@ def test_events_are_located_on_their_switching_surfaces(problem, table2_step):
     deg = 180 / math.pi
     c, gamma = problem.compliance, problem.slope
     surfaces = {
-        "toe_off": (lambda r: r["N_toe2"], 1e-8),                         # N
+        "toe_off": (lambda r: r["release_N_toe2"], 1e-8),                        # N
         "heel_strike": (lambda r: r["heel2_height_m"], 1e-12),            # m
         "foot_strike": (lambda r: r["qf2"] - (math.pi / 2 - gamma), 1e-12),  # rad
         "knee1_disengage": (lambda r: r["knee1_deg"] / deg - c["theta_dis"], 1e-12),

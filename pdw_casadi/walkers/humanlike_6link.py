@@ -159,7 +159,9 @@ def build(problem) -> WalkerModel:
     lam = ph1.lam
     N_toe2 = ca.dot(lam[0:2], n)
     N1, m1a, m1b, outs1 = flat_foot(lam[2], lam[3], lam[4], qf1, "foot1")
-    ph1.outputs = {**outs1, "N_toe2": N_toe2, "F_toe2_x": lam[0], "F_toe2_y": lam[1]}
+    # the trailing toe's force is the releasing contact (it is the guard, zero at toe-off),
+    # so it is reported but is not a validity margin
+    ph1.outputs = {**outs1, "release_N_toe2": N_toe2, "F_toe2_x": lam[0], "F_toe2_y": lam[1]}
     ph1.events = [
         Event("toe_off", N_toe2, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
         Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
@@ -171,8 +173,7 @@ def build(problem) -> WalkerModel:
     ph2 = make_phase(sysm, F_q, "II", contact_II)
     lam = ph2.lam
     N1, m1a, m1b, outs2 = flat_foot(lam[0], lam[1], lam[2], qf1, "foot1")
-    ph2.outputs = {**outs2, "clearance_toe2": _height(toe2, n),
-                   "clearance_heel2": _height(heel2, n)}
+    ph2.outputs = {**outs2, "clearance_toe2": _height(toe2, n)}
     ph2.events = [
         Event("heel_strike", _height(heel2, n), -1, GUARD, "swing heel reaches the ground",
               require=ca.dot(heel2 - heel1, t_slope), require_reason="heel_strike_behind"),
