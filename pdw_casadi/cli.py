@@ -279,10 +279,67 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     return 0 if res.converged else 1
 
 
+def fit_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-fit --gait FILE``: compare the walker's gait with human knee/hip curves.
+
+    Finds the fixed point of the problem's compliance (the paper's Table 3 by default),
+    assembles its gait cycle (MODEL.md), and writes ``curves.csv`` (human and model knee,
+    hip, thigh in deg over 0..100 % of the cycle), ``summary.json`` (r2_knee, r2_hip and,
+    when the file has thigh data, r2_thigh; fixed point, eigenvalues, margins) and
+    ``fit.png`` (human mean +/- SD, model). The compliance-fitting NLP is not part of this
+    release yet: the command says so and reports the problem's own compliance.
+    """
+    parser = argparse.ArgumentParser(
+        prog="pdw-fit", parents=[common_parser()],
+        description="Gait-cycle curves of a walker against human data (R^2).")
+    parser.add_argument("--gait", required=True, metavar="FILE",
+                        help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
+    args = parser.parse_args(argv)
+    with _errors():
+        from .curves import fit_scores, gait_cycle
+        from .fixed_point import find_fixed_point
+        from .gait_data import load_gait_curves
+        from .plots import plot_fit
+        from .simulate import Simulator
+
+        human = load_gait_curves(args.gait)
+        problem = load_cli_problem(args)
+        out = _out_dir(args.out)
+        print("notice: the compliance-fitting NLP is not implemented in this release; "
+              "reporting the problem's own compliance (the paper's Table 3 by default).",
+              file=sys.stderr)
+        res = find_fixed_point(problem, verbose=True)
+        if not res.converged:
+            _fail(f"no fixed point found near the initial state of {problem.name}", 1)
+        sim = Simulator(problem)
+        one = sim.run(res.state, res.parameters, steps=1, record=True)
+        model = gait_cycle(one.trajectory)
+        scores = fit_scores(model, human)
+        h = human.resample(len(model))
+        curves = model.rename(columns={c: f"model_{c}" for c in model if c != "cycle_pct"})
+        curves["human_knee_deg"] = h.knee_deg
+        curves["human_hip_deg"] = h.hip_deg
+        if h.thigh_deg is not None:
+            curves["human_thigh_deg"] = h.thigh_deg
+        curves.to_csv(out / "curves.csv", index=False)
+        summary = {**scores, "gait_file": str(human.source), "problem": problem.name,
+                   "compliance": dict(problem.compliance), "slope": problem.slope,
+                   "paper_reported": {"r2_knee": 0.891, "r2_hip": 0.899},
+                   "fitted": False, **res.to_dict()}
+        _write_json(out / "summary.json", summary)
+        plot_fit(h, {f"{problem.name} (own compliance)": model}, out / "fit.png",
+                 scores={f"{problem.name} (own compliance)": scores})
+    print("  ".join(f"{k} = {v:.3f}" for k, v in scores.items())
+          + f"   spectral radius {res.spectral_radius:.4f}")
+    print(f"wrote {out}")
+    return 0
+
+
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)
 COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "simulate": simulate_main,
     "fixed-point": fixed_point_main,
+    "fit": fit_main,
 }
 
 

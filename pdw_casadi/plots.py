@@ -288,3 +288,30 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=(("q1", "q2"), ("q4", 
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def plot_fit(human, models: dict, path, scores: dict | None = None) -> Path:
+    """The paper's Fig. 5: knee (a) and hip (b) over the gait cycle, human mean +/- SD and
+    one curve per model (deg against % of the cycle); R^2 in the legend when given."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    pct = human.cycle_pct
+    for ax, name, mean, sd in ((axes[0], "knee", human.knee_deg, human.knee_sd_deg),
+                               (axes[1], "hip", human.hip_deg, human.hip_sd_deg)):
+        if sd is not None:
+            ax.fill_between(pct, mean - sd, mean + sd, color="0.85", label="human +/- SD")
+        ax.plot(pct, mean, color="k", lw=1.8, label="human mean")
+        for label, model in models.items():
+            r2 = (scores or {}).get(label, {}).get(f"r2_{name}")
+            tag = f" (R$^2$ = {r2:.3f})" if r2 is not None else ""
+            ax.plot(model["cycle_pct"], model[f"{name}_deg"], lw=1.5, label=label + tag)
+        ax.set_xlabel("gait cycle (%)")
+        ax.set_ylabel(f"{name} angle (deg)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_title("(a) knee")
+    axes[1].set_title("(b) hip (model thigh from the slope normal)")
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

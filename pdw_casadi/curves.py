@@ -1,0 +1,65 @@
+"""Gait-cycle curves of a walker and their goodness of fit to human data (MODEL.md).
+
+A gait cycle runs from a heel strike of one leg to its next heel strike (two steps). At a
+symmetric fixed point it is assembled from one recorded step: leg 2 from its heel strike to
+the end of the step, leg 1 over the whole step, then leg 2 from the step's start to heel
+strike. Time is normalised to 0..100 % and sampled like the data (101 points).
+knee = degrees(q_thigh - q_shank); hip = degrees(q_thigh + slope) (the paper's "relative to
+the ground"); thigh = degrees(q_thigh) (from the gravity vertical, like-for-like with the
+human thigh column). R^2 = 1 - SS_res / SS_tot about the human mean.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+CURVES = ("knee", "hip", "thigh")
+
+
+def r_squared(model, human) -> float:
+    """Coefficient of determination of ``model`` against ``human`` (same samples), -."""
+    model, human = np.asarray(model, float), np.asarray(human, float)
+    ss_res = float(np.sum((human - model) ** 2))
+    ss_tot = float(np.sum((human - human.mean()) ** 2))
+    return 1.0 - ss_res / ss_tot
+
+
+def gait_cycle(step: pd.DataFrame, heel_strike_phase: str = "III",
+               n: int = 101) -> pd.DataFrame:
+    """Model curves over one gait cycle (deg) from one recorded step at a fixed point.
+
+    ``step``: the trajectory rows of one step (columns t, phase, knee1_deg, knee2_deg,
+    hip1_deg, hip2_deg, thigh1_deg, thigh2_deg). ``heel_strike_phase``: the phase that
+    begins at the swing leg's heel strike. Returns cycle_pct, knee_deg, hip_deg, thigh_deg.
+    """
+    t = step["t"].to_numpy() - step["t"].iloc[0]
+    T = t[-1]
+    ph = step["phase"].to_numpy()
+    i_hs = int(np.flatnonzero(ph == heel_strike_phase)[0])
+    t_hs = t[i_hs]
+    parts = []
+    a = slice(i_hs, None)
+    parts.append((t[a] - t_hs, step.iloc[a], 2))
+    parts.append((T - t_hs + t, step, 1))
+    c = slice(0, i_hs)
+    parts.append((2 * T - t_hs + t[c], step.iloc[c], 2))
+    time = np.concatenate([p[0] for p in parts])
+    out = {"cycle_pct": np.linspace(0.0, 100.0, n)}
+    pct = 100.0 * time / (2 * T)
+    # keep the post-impact sample where two samples share a time (impacts)
+    keep = np.r_[np.diff(pct) > 1e-12, True]
+    for name in CURVES:
+        vals = np.concatenate([p[1][f"{name}{p[2]}_deg"].to_numpy() for p in parts])
+        out[f"{name}_deg"] = np.interp(out["cycle_pct"], pct[keep], vals[keep])
+    return pd.DataFrame(out)
+
+
+def fit_scores(model: pd.DataFrame, human) -> dict:
+    """R^2 of knee and hip (paper's definitions) and of the thigh (when the data has it)."""
+    h = human.resample(len(model)) if len(human) != len(model) else human
+    scores = {"r2_knee": r_squared(model["knee_deg"], h.knee_deg),
+              "r2_hip": r_squared(model["hip_deg"], h.hip_deg)}
+    if h.thigh_deg is not None:
+        scores["r2_thigh"] = r_squared(model["thigh_deg"], h.thigh_deg)
+    return scores
