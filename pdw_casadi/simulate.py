@@ -129,14 +129,6 @@ class SimulationResult:
         return self.trajectory if self.trajectory is not None else pd.DataFrame()
 
 
-def _crossed(g0: float, g1: float, direction: int) -> bool:
-    if direction < 0:
-        return g0 > 0 >= g1
-    if direction > 0:
-        return g0 < 0 <= g1
-    return (g0 > 0 >= g1) or (g0 < 0 <= g1)
-
-
 class Simulator:
     """Event-driven simulation of one walker; keeps CasADi functions, reused across calls."""
 
@@ -241,7 +233,7 @@ class Simulator:
             t += tau
             g_e = hs.events[phase](x_e, p, mv).full().ravel()
             ev = evs[idx]
-            sign = 1 if g_prev_sign(Gp[idx, hit_k]) < 0 else -1
+            sign = 1 if Gp[idx, hit_k] < 0 else -1  # crossing direction
             if rec is not None:
                 rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], self._step))
             plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, idx, sign))
@@ -406,10 +398,6 @@ class Simulator:
         if not frames:
             return pd.DataFrame()
         return pd.concat(frames, ignore_index=True)
-
-
-def g_prev_sign(v: float) -> int:
-    return 1 if v > 0 else -1
 
 
 def _q_names(hs) -> list[str]:

@@ -26,10 +26,6 @@ class JointTorque:
     minus_angle: ca.SX | None
     law: Callable
 
-    def evaluate(self):
-        theta = self.plus_angle - (0 if self.minus_angle is None else self.minus_angle)
-        return theta, self.law
-
 
 def spring_damper(stiffness, rest, damping):
     """Linear torsional spring-damper: tau = -k (theta - rest) - c theta_dot."""
