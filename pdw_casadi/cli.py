@@ -88,8 +88,9 @@ def _write_json(path: Path | str, data) -> Path:
     return path
 
 
-def common_parser() -> argparse.ArgumentParser:
-    """Parent parser shared by every command: --problem, --state, --compliance, --out."""
+def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
+    """Parent parser shared by every command: --problem, --state, --compliance, --out
+    (required unless the command gives ``out_default``)."""
     parent = argparse.ArgumentParser(add_help=False)
     g = parent.add_argument_group("problem and output")
     g.add_argument("--problem", default="humanlike_6link", metavar="NAME_OR_PATH",
@@ -100,8 +101,10 @@ def common_parser() -> argparse.ArgumentParser:
                         "{\"q1\": 0.25}; a summary.json of this toolkit also works")
     g.add_argument("--compliance", type=Path, metavar="FILE",
                    help="JSON/TOML table of compliance overrides, e.g. {\"k_knee\": 120}")
-    g.add_argument("--out", type=Path, required=True, metavar="DIR",
-                   help="output directory (created if missing)")
+    g.add_argument("--out", type=Path, required=out_default is None, metavar="DIR",
+                   default=None if out_default is None else Path(out_default),
+                   help="output directory (created if missing)"
+                        + ("" if out_default is None else " (default: %(default)s)"))
     return parent
 
 
@@ -280,59 +283,54 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:
-    """``pdw-fit --gait FILE``: compare the walker's gait with human knee/hip curves.
+    """``pdw-fit --gait FILE``: fit the compliance and a stable periodic gait to human curves.
 
-    Finds the fixed point of the problem's compliance (the paper's Table 3 by default),
-    assembles its gait cycle (MODEL.md), and writes ``curves.csv`` (human and model knee,
-    hip, thigh in deg over 0..100 % of the cycle), ``summary.json`` (r2_knee, r2_hip and,
-    when the file has thigh data, r2_thigh; fixed point, eigenvalues, margins) and
-    ``fit.png`` (human mean +/- SD, model). The compliance-fitting NLP is not part of this
-    release yet: the command says so and reports the problem's own compliance.
+    One multiple-shooting IPOPT NLP per start (see :mod:`pdw_casadi.fit`), verified by a
+    20-step re-simulation and the exact-AD spectral radius. Writes ``summary.json``,
+    ``curves.csv``, ``fit.png`` (Fig. 5 with the Table-3 walker and the comparison walker),
+    ``limit_cycle.png`` (Fig. 4) and ``table.md``. Exit code 1 when no stable valid gait was
+    found (the outputs then describe the best candidate and say so).
     """
     parser = argparse.ArgumentParser(
-        prog="pdw-fit", parents=[common_parser()],
-        description="Gait-cycle curves of a walker against human data (R^2).")
+        prog="pdw-fit", parents=[common_parser(out_default="fit")],
+        description="Fit compliance and a stable periodic gait to human knee/hip curves.")
     parser.add_argument("--gait", required=True, metavar="FILE",
                         help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
+    parser.add_argument("--multistart", type=_positive_int, default=1, metavar="N",
+                        help="number of starts: the problem's compliance, then random "
+                             "perturbations of it (default: %(default)s)")
+    parser.add_argument("--seed", type=int, default=0, help="multistart seed (default: 0)")
+    parser.add_argument("--free-slope", action="store_true",
+                        help="let the slope be an unknown too (0.05..0.25 rad)")
+    parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
+                        help="hip curve in the objective: the paper's hip (thigh + slope) "
+                             "or the thigh from the vertical (default: %(default)s)")
+    parser.add_argument("--max-radius", type=float, default=0.95, metavar="R",
+                        help="largest accepted spectral radius (default: %(default)s)")
+    parser.add_argument("--max-iter", type=_positive_int, default=400,
+                        help="IPOPT iterations per solve (default: %(default)s)")
+    parser.add_argument("--workers", type=_positive_int, default=1,
+                        help="processes for the multistart (default: 1)")
+    parser.add_argument("--quiet", action="store_true", help="no IPOPT iteration log")
     args = parser.parse_args(argv)
     with _errors():
-        from .curves import fit_scores, gait_cycle
-        from .fixed_point import find_fixed_point
+        from .fit import FitOptions
+        from .fit_report import fit_and_report
         from .gait_data import load_gait_curves
-        from .plots import plot_fit
-        from .simulate import Simulator
 
         human = load_gait_curves(args.gait)
         problem = load_cli_problem(args)
+        if not 0 < args.max_radius < 1:
+            _fail(f"--max-radius must be in (0, 1), got {args.max_radius}")
+        opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
+                          max_radius=args.max_radius, multistart=args.multistart,
+                          seed=args.seed, max_iter=args.max_iter, verbose=not args.quiet)
         out = _out_dir(args.out)
-        print("notice: the compliance-fitting NLP is not implemented in this release; "
-              "reporting the problem's own compliance (the paper's Table 3 by default).",
-              file=sys.stderr)
-        res = find_fixed_point(problem, verbose=True)
-        if not res.converged:
-            _fail(f"no fixed point found near the initial state of {problem.name}", 1)
-        sim = Simulator(problem)
-        one = sim.run(res.state, res.parameters, steps=1, record=True)
-        model = gait_cycle(one.trajectory)
-        scores = fit_scores(model, human)
-        h = human.resample(len(model))
-        curves = model.rename(columns={c: f"model_{c}" for c in model if c != "cycle_pct"})
-        curves["human_knee_deg"] = h.knee_deg
-        curves["human_hip_deg"] = h.hip_deg
-        if h.thigh_deg is not None:
-            curves["human_thigh_deg"] = h.thigh_deg
-        curves.to_csv(out / "curves.csv", index=False)
-        summary = {**scores, "gait_file": str(human.source), "problem": problem.name,
-                   "compliance": dict(problem.compliance), "slope": problem.slope,
-                   "paper_reported": {"r2_knee": 0.891, "r2_hip": 0.899},
-                   "fitted": False, **res.to_dict()}
-        _write_json(out / "summary.json", summary)
-        plot_fit(h, {f"{problem.name} (own compliance)": model}, out / "fit.png",
-                 scores={f"{problem.name} (own compliance)": scores})
-    print("  ".join(f"{k} = {v:.3f}" for k, v in scores.items())
-          + f"   spectral radius {res.spectral_radius:.4f}")
+        summary = fit_and_report(problem, human, opts, out, workers=args.workers,
+                                 log=lambda m: print(m, file=sys.stderr, flush=True))
+    print(summary["headline"])
     print(f"wrote {out}")
-    return 0
+    return 0 if summary["stable"] and summary["valid"] else 1
 
 
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)

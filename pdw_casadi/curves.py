@@ -25,25 +25,31 @@ def r_squared(model, human) -> float:
     return 1.0 - ss_res / ss_tot
 
 
-def gait_cycle(step: pd.DataFrame, heel_strike_phase: str = "III",
+def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None = "III",
                n: int = 101) -> pd.DataFrame:
     """Model curves over one gait cycle (deg) from one recorded step at a fixed point.
 
     ``step``: the trajectory rows of one step (columns t, phase, knee1_deg, knee2_deg,
     hip1_deg, hip2_deg, thigh1_deg, thigh2_deg). ``heel_strike_phase``: the phase that
-    begins at the swing leg's heel strike. Returns cycle_pct, knee_deg, hip_deg, thigh_deg.
+    begins at the swing leg's heel strike; None when the step itself begins at leg 1's heel
+    strike (point feet): the cycle is then leg 1 over the step, then leg 2 over the step.
+    Returns cycle_pct, knee_deg, hip_deg, thigh_deg.
     """
     t = step["t"].to_numpy() - step["t"].iloc[0]
     T = t[-1]
     ph = step["phase"].to_numpy()
-    i_hs = int(np.flatnonzero(ph == heel_strike_phase)[0])
-    t_hs = t[i_hs]
     parts = []
-    a = slice(i_hs, None)
-    parts.append((t[a] - t_hs, step.iloc[a], 2))
-    parts.append((T - t_hs + t, step, 1))
-    c = slice(0, i_hs)
-    parts.append((2 * T - t_hs + t[c], step.iloc[c], 2))
+    if heel_strike_phase is None:
+        parts.append((t, step, 1))
+        parts.append((T + t, step, 2))
+    else:
+        i_hs = int(np.flatnonzero(ph == heel_strike_phase)[0])
+        t_hs = t[i_hs]
+        a = slice(i_hs, None)
+        parts.append((t[a] - t_hs, step.iloc[a], 2))
+        parts.append((T - t_hs + t, step, 1))
+        c = slice(0, i_hs)
+        parts.append((2 * T - t_hs + t[c], step.iloc[c], 2))
     time = np.concatenate([p[0] for p in parts])
     out = {"cycle_pct": np.linspace(0.0, 100.0, n)}
     pct = 100.0 * time / (2 * T)

@@ -119,6 +119,15 @@ class Problem:
         _check_values(new, self.source or Path(self.name))
         return new
 
+    def __getstate__(self) -> dict:
+        # mapping proxies do not pickle; worker processes get plain dicts, re-frozen on arrival
+        return {f.name: (dict(v) if isinstance(v, Mapping) else v)
+                for f in dataclasses.fields(self) for v in (getattr(self, f.name),)}
+
+    def __setstate__(self, state: dict) -> None:
+        for k, v in state.items():
+            object.__setattr__(self, k, _frozen(v) if isinstance(v, dict) else v)
+
     def to_dict(self) -> dict:
         return {
             "name": self.name, "family": self.family, "title": self.title, "g": self.g,

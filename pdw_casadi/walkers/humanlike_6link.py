@@ -275,6 +275,6 @@ def build(problem) -> WalkerModel:
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=STATE_KEYS, parameter_names=(*COMPLIANCE_KEYS, "slope"),
         step_length=ca.dot(toe2 - toe1, t_slope), common_outputs=common, points=points,
-        links=links, ground_normal=n, q_names=Q_NAMES,
+        links=links, ground_normal=n, q_names=Q_NAMES, heel_strike_phase="III",
     )
 

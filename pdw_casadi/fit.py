@@ -1,0 +1,398 @@
+"""Fit a walker's compliance and periodic gait to human knee and hip curves (one IPOPT NLP).
+
+:func:`fit_gait` transcribes one step by multiple shooting (:mod:`pdw_casadi.shooting`),
+minimises 1 - R^2 of the chosen curves (:mod:`pdw_casadi.objective`) over the gait and the
+compliance (and the slope with ``free_slope``), then checks the answer the way a reviewer
+would:
+
+- **re-simulation**: the NLP's section state and parameters are run through the
+  event-driven simulator for 20 steps; the largest deviation from the NLP's state is reported
+  (it must stay below 1e-6: the NLP's map is the simulator's map);
+- **stability** from the exact AD Jacobian of the Poincare map. The NLP itself has no
+  eigenvalues, so stability is imposed by *sequential linearised constraints*: while the
+  spectral radius rho exceeds ``max_radius``, its gradient with respect to the free
+  parameters is taken by finite differences of exact fixed-point solves, the linear
+  constraint rho + grad . (u - u_k) <= max_radius - 0.01 is added, and the NLP re-solved
+  warm. A multistart keeps the best stable, valid solution;
+- **validity**: the simulator's margins (contact forces, centre of pressure, clearance,
+  impulses) at the fixed point.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import pandas as pd
+
+from .curves import fit_scores, gait_cycle
+from .fixed_point import FixedPointResult, find_fixed_point
+from .objective import curve_errors, curve_objective
+from .shooting import ShootingNLP
+from .simulate import Simulator
+
+RESIM_STEPS = 20
+
+
+@dataclass
+class FitOptions:
+    """Settings of :func:`fit_gait`.
+
+    ``hip_target``: "hip" (the paper's hip angle, thigh + slope) or "thigh" (thigh from the
+    gravity vertical, like-for-like with the human thigh column). ``max_radius``: largest
+    accepted spectral radius of the Poincare map (stability margin 1 - max_radius).
+    """
+
+    hip_target: str = "hip"
+    free_slope: bool = False
+    slope_bounds: tuple[float, float] = (0.05, 0.25)  # rad
+    max_radius: float = 0.95
+    stability_rounds: int = 6
+    trust_radius: float = 0.02  # scaled parameter units (relative to the starting values)
+    multistart: int = 1
+    seed: int = 0
+    spread: float = 0.3  # relative log-normal spread of the multistart compliance
+    max_iter: int = 400
+    tol: float = 1e-6
+    sample_stride: int = 2
+    verbose: bool = True
+    free: tuple[str, ...] | None = None  # compliance names to fit (default: all)
+
+
+@dataclass
+class Solve:
+    """One IPOPT solve: status, iterations, wall time (s), objective (sum of 1 - R^2)."""
+
+    start: int
+    round: int
+    status: str
+    iterations: int
+    wall_time_s: float
+    objective: float
+    spectral_radius: float = float("nan")
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Candidate:
+    """A fitted gait with its checks."""
+
+    start: int
+    state: np.ndarray
+    parameters: np.ndarray
+    fixed_point: FixedPointResult
+    scores: dict
+    curves: pd.DataFrame
+    resimulation_deviation: float
+    objective: float
+
+    @property
+    def stable(self) -> bool:
+        return self.fixed_point.stable
+
+    @property
+    def valid(self) -> bool:
+        return self.fixed_point.valid and self.resimulation_deviation < 1e-6
+
+
+@dataclass
+class FitResult:
+    """The best fit, every start's outcome and the IPOPT solves."""
+
+    problem: object
+    best: Candidate | None
+    candidates: list[Candidate]
+    solves: list[Solve]
+    options: FitOptions
+    wall_time_s: float
+    targets: tuple[str, ...]
+    notes: list[str] = field(default_factory=list)
+
+    def starts_frame(self) -> pd.DataFrame:
+        rows = []
+        for c in self.candidates:
+            rows.append({"start": c.start, **c.scores, "objective": c.objective,
+                         "spectral_radius": c.fixed_point.spectral_radius,
+                         "stable": c.stable, "valid": c.valid,
+                         "resimulation_deviation": c.resimulation_deviation,
+                         "failure": c.fixed_point.failure})
+        return pd.DataFrame(rows)
+
+
+def _curves_of(problem, sim: Simulator, x, p):
+    one = sim.run(x, p, steps=1, record=True)
+    if one.failure is not None:
+        return None
+    return gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+
+
+def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
+                  resim_steps: int = RESIM_STEPS) -> Candidate | None:
+    """Checks of a gait (x: section state, p: parameters): fixed point, stability, margins,
+    20-step re-simulation deviation of x itself, curves and R^2 against ``human``."""
+    sim = sim or Simulator(problem)
+    run = sim.run(x, p, steps=resim_steps, record=False)
+    ps = run.poincare_states
+    dev = float(np.abs(ps - x).max()) if run.failure is None else math.inf
+    fp = find_fixed_point(problem, x, p, max_iter=15, fallback=False)
+    if not fp.converged:
+        return None
+    curves = _curves_of(problem, sim, fp.state, fp.parameters)
+    if curves is None:
+        return None
+    return Candidate(-1, fp.state, fp.parameters, fp, fit_scores(curves, human), curves, dev,
+                     float("nan"))
+
+
+def _radius_gradient(problem, cand: Candidate, nlp: ShootingNLP, rel: float = 1e-5):
+    """d(spectral radius)/du over the NLP's scaled free parameters (finite differences of
+    exact fixed-point solves; each starts from the linear prediction of the fixed point)."""
+    fp = cand.fixed_point
+    n = fp.state.size
+    grad = np.zeros(len(nlp.free))
+    for j, name in enumerate(nlp.free):
+        i = nlp.param_names.index(name)
+        dp = rel * nlp.p_scale[j]
+        p = fp.parameters.copy()
+        p[i] += dp
+        x_pred = fp.state + np.linalg.solve(np.eye(n) - fp.jacobian, fp.jacobian_p[:, i] * dp)
+        r = find_fixed_point(problem, x_pred, p, max_iter=10, fallback=False)
+        if r.converged:  # else the gait breaks along this parameter: leave it out (0)
+            grad[j] = (r.spectral_radius - fp.spectral_radius) / rel
+    return grad
+
+
+class _Solver:
+    """IPOPT on one ShootingNLP. The curve errors at the RK4 samples are extra unknowns E
+    (E - err(w) = 0), so the objective sum w E^2 / SS_tot has a trivial gradient and one
+    constraint-Jacobian pass per iteration serves all derivatives; each error row depends on
+    few unknowns, which keeps the Jacobian's colouring cheap. Optional linear rows on the
+    free parameters carry the stability constraints."""
+
+    def __init__(self, nlp: ShootingNLP, human, targets, opts: FitOptions):
+        self.nlp = nlp
+        errs = curve_errors(nlp, human, targets)
+        _, terms = curve_objective(nlp, human, targets)
+        self.terms = ca.Function("terms", [nlp.w], list(terms.values()))
+        err_rows, obj = [], 0
+        self.E = []
+        for _target, (parts, ss_tot) in errs.items():
+            for err, w in parts:
+                E = ca.MX.sym(f"E{len(self.E)}", 1, err.shape[1])
+                self.E.append(E)
+                err_rows.append(ca.vec(E - err))
+                obj = obj + w * ca.sumsqr(E) / ss_tot
+        self.e = ca.vertcat(*[ca.vec(E) for E in self.E])
+        self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(err) for p, _ in
+                                                             errs.values() for err, _w in p])])
+        self.f = obj
+        self.x = ca.vertcat(nlp.w, self.e)
+        self.g_base = ca.vertcat(nlp.g, *err_rows)
+        self.rows: list[tuple[np.ndarray, float]] = []
+        self.opts = opts
+        self.lo, self.hi = nlp.bounds(opts.slope_bounds)
+
+    def solve(self, w0, warm=None, box=None):
+        """Solve from ``w0``; ``box`` = (u_center, radius) bounds the scaled free parameters
+        (a trust region for the linearised stability constraint)."""
+        nlp, opts = self.nlp, self.opts
+        g = self.g_base
+        lbg = np.r_[nlp.lbg, np.zeros(self.e.shape[0])]
+        ubg = np.r_[nlp.ubg, np.zeros(self.e.shape[0])]
+        for a, b in self.rows:
+            g = ca.vertcat(g, ca.dot(ca.DM(a), nlp.pf))
+            lbg, ubg = np.r_[lbg, -np.inf], np.r_[ubg, b]
+        ipopt = {"hessian_approximation": "limited-memory", "max_iter": opts.max_iter,
+                 "tol": opts.tol, "acceptable_tol": 1e-4, "acceptable_iter": 10,
+                 "print_level": 5 if opts.verbose else 0, "print_frequency_iter": 10,
+                 "sb": "yes", "mu_strategy": "adaptive"}
+        if warm is not None:
+            ipopt.update({"warm_start_init_point": "yes", "mu_init": 1e-4,
+                          "warm_start_bound_push": 1e-6, "warm_start_mult_bound_push": 1e-6})
+        solver = ca.nlpsol("pdw_fit", "ipopt", {"x": self.x, "f": self.f, "g": g},
+                           {"ipopt": ipopt, "print_time": False})
+        e0 = self.err(w0).full().ravel()
+        lo, hi = self.lo.copy(), self.hi.copy()
+        if box is not None:
+            ns = nlp.xs.shape[0]
+            sl = slice(ns, ns + len(nlp.free))
+            lo[sl] = np.maximum(lo[sl], box[0] - box[1])
+            hi[sl] = np.minimum(hi[sl], box[0] + box[1])
+        w0 = np.clip(w0, lo, hi)
+        args = {"x0": np.r_[w0, e0], "lbx": np.r_[lo, np.full(e0.size, -np.inf)],
+                "ubx": np.r_[hi, np.full(e0.size, np.inf)], "lbg": lbg, "ubg": ubg}
+        if warm is not None:
+            lam_g = np.r_[warm["lam_g"], np.zeros(lbg.size - warm["lam_g"].size)]
+            args.update(lam_x0=warm["lam_x"], lam_g0=lam_g)
+        t0 = time.perf_counter()
+        sol = solver(**args)
+        st = solver.stats()
+        x = sol["x"].full().ravel()
+        out = {"w": x[: nlp.w.shape[0]], "objective": float(sol["f"]),
+               "lam_x": sol["lam_x"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
+               "status": st["return_status"], "iterations": int(st["iter_count"]),
+               "wall_time_s": time.perf_counter() - t0,
+               "success": bool(st["success"]) or st["return_status"] in (
+                   "Solved_To_Acceptable_Level", "Maximum_Iterations_Exceeded")}
+        return out
+
+
+def _starts(problem, opts: FitOptions) -> list[np.ndarray]:
+    """Starting parameter vectors: the problem's own, then log-normal perturbations of its
+    compliance inside the problem's bounds (reproducible with ``seed``)."""
+    p0 = problem.parameter_vector()
+    starts = [p0]
+    rng = np.random.default_rng(opts.seed)
+    names = problem.parameter_names
+    for _ in range(max(0, opts.multistart - 1)):
+        p = p0.copy()
+        for i, name in enumerate(names[:-1]):
+            lo, hi = problem.compliance_bounds.get(name, (-np.inf, np.inf))
+            p[i] = float(np.clip(p0[i] * math.exp(opts.spread * rng.standard_normal()), lo, hi))
+        starts.append(p)
+    return starts
+
+
+def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
+    """One start: fixed point of the starting compliance, NLP solve(s) with the stability
+    rounds, checks. Returns (candidate or None, solves, notes)."""
+    sim = Simulator(problem)
+    targets = ("knee", opts.hip_target)
+    free = tuple(opts.free or problem.compliance_names) + (("slope",) if opts.free_slope else ())
+    solves, notes = [], []
+    fp0 = find_fixed_point(problem, problem.state_vector(), p_start, max_iter=30,
+                           fallback=False)
+    if not fp0.converged:
+        notes.append(f"start {s}: no fixed point of the starting compliance; skipped")
+        log(notes[-1])
+        return None, solves, notes
+    try:
+        nlp = ShootingNLP(problem, fp0.state, p_start, free=free,
+                          sample_stride=opts.sample_stride, hs=sim.hs)
+    except ValueError as exc:
+        notes.append(f"start {s}: {exc}")
+        log(notes[-1])
+        return None, solves, notes
+    solver = _Solver(nlp, human, targets, opts)
+    log(f"start {s}: {len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, "
+        f"{nlp.g.shape[0]} constraints; solving with IPOPT")
+    out = solver.solve(nlp.w0)
+    cand = _check(problem, nlp, out, human, sim, s, 0, solves, notes, log)
+    best = cand
+    # stability rounds: linearise rho at the current point, demand rho <= target inside a
+    # trust region of the scaled parameters, re-solve warm; accept a round that lowers rho
+    delta = opts.trust_radius
+    acc_out, acc = out, cand
+    for rnd in range(1, opts.stability_rounds + 1):
+        if acc is None or acc.fixed_point.spectral_radius <= opts.max_radius:
+            break
+        grad = _radius_gradient(problem, acc, nlp)
+        if grad is None or not np.any(grad):
+            notes.append(f"start {s}: no spectral-radius gradient; stability not imposed")
+            break
+        ns = nlp.xs.shape[0]
+        uk = acc_out["w"][ns: ns + len(nlp.free)]
+        rho = acc.fixed_point.spectral_radius
+        target = opts.max_radius - 0.01
+        solver.rows = [(grad, float(target - rho + grad @ uk))]
+        out = solver.solve(acc_out["w"], acc_out, box=(uk, delta))
+        cand = _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log)
+        if cand is not None and cand.fixed_point.spectral_radius < rho:
+            u_new = out["w"][ns: ns + len(nlp.free)]
+            pred = rho + grad @ (u_new - uk)
+            gain = (rho - cand.fixed_point.spectral_radius) / max(rho - pred, 1e-12)
+            acc_out, acc = out, cand
+            delta = delta * 2 if gain > 0.5 else delta
+            if _better(cand, best, opts):
+                best = cand
+        else:
+            delta /= 4
+            log(f"start {s} round {rnd}: rejected; trust radius {delta:.3g}")
+    return best, solves, notes
+
+
+def _better(a: Candidate, b: Candidate | None, opts: FitOptions) -> bool:
+    """Stable beats unstable; then lower spectral radius while unstable, else higher R^2."""
+    if b is None:
+        return True
+    ra, rb = a.fixed_point.spectral_radius, b.fixed_point.spectral_radius
+    sa, sb = ra <= opts.max_radius, rb <= opts.max_radius
+    if sa != sb:
+        return sa
+    if not sa:
+        return ra < rb
+    t = ("knee", opts.hip_target)
+    return np.mean([a.scores[f"r2_{x}"] for x in t]) > np.mean([b.scores[f"r2_{x}"] for x in t])
+
+
+def _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log) -> Candidate | None:
+    """Evaluate one solve's gait with the simulator; record the solve."""
+    u = nlp.unpack(out["w"])
+    cand = evaluate_gait(problem, u["xs"], u["p"], human, sim) if out["success"] else None
+    rho = cand.fixed_point.spectral_radius if cand else float("nan")
+    solves.append(Solve(s, rnd, out["status"], out["iterations"], out["wall_time_s"],
+                        out["objective"], rho))
+    log(f"start {s} round {rnd}: {out['status']} after {out['iterations']} "
+        f"iterations ({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, "
+        f"spectral radius {rho:.4f}"
+        + (f", r2_knee {cand.scores['r2_knee']:.3f} r2_hip {cand.scores['r2_hip']:.3f}"
+           if cand else ""))
+    if cand is None:
+        notes.append(f"start {s} round {rnd}: {out['status']}"
+                     + ("; no fixed point of the simulator there" if out["success"] else ""))
+        return None
+    cand.start, cand.objective = s, out["objective"]
+    return cand
+
+
+def _fit_start_task(args):
+    problem, human, opts, s, p_start = args
+    return _fit_start(problem, human, opts, s, p_start, log=lambda m: None)
+
+
+def fit_gait(problem, human, options: FitOptions | None = None, log=print,
+             workers: int = 1) -> FitResult:
+    """Fit ``problem``'s compliance (and slope with ``free_slope``) and periodic gait to
+    ``human`` curves (:class:`~pdw_casadi.gait_data.GaitCurves`).
+
+    Start 0 is the fixed point of the problem's own compliance (the paper's Table 3) near
+    its initial state; further starts perturb the compliance (``multistart``), run on
+    ``workers`` processes. See the module docstring for the checks. ``best`` is the stable,
+    valid candidate with the highest mean R^2 of the targets (None if no start gave one).
+    """
+    opts = options or FitOptions()
+    if opts.hip_target not in ("hip", "thigh"):
+        raise ValueError(f"hip_target must be 'hip' or 'thigh', got {opts.hip_target!r}")
+    targets = ("knee", opts.hip_target)
+    t_start = time.perf_counter()
+    starts = _starts(problem, opts)
+    results = []
+    if workers > 1 and len(starts) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        tasks = [(problem, human, opts, s, p) for s, p in enumerate(starts)]
+        log(f"{len(starts)} starts on {workers} processes")
+        with ProcessPoolExecutor(workers) as pool:
+            for r in pool.map(_fit_start_task, tasks):
+                results.append(r)
+                c = r[0]
+                log(f"start {len(results) - 1} done: " + (
+                    f"r2_knee {c.scores['r2_knee']:.3f} r2_hip {c.scores['r2_hip']:.3f} "
+                    f"spectral radius {c.fixed_point.spectral_radius:.4f}" if c else "failed"))
+    else:
+        for s, p in enumerate(starts):
+            results.append(_fit_start(problem, human, opts, s, p, log=log))
+    candidates = [r[0] for r in results if r[0] is not None]
+    solves = [x for r in results for x in r[1]]
+    notes = [x for r in results for x in r[2]]
+    good = [c for c in candidates if c.stable and c.valid
+            and c.fixed_point.spectral_radius <= opts.max_radius]
+    best = max(good, key=lambda c: np.mean([c.scores[f"r2_{t}"] for t in targets]),
+               default=None)
+    return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
+                     targets, notes)

@@ -1,0 +1,175 @@
+"""Run a fit and write its report: summary.json, curves.csv, fit.png, limit_cycle.png, table.md.
+
+Beside the fit, two references are computed with the same curve code on the same data: the
+paper's own compliance (the problem file's, Table 3) re-run on this walker, and the paper's
+comparison walker [48] (point feet, knees locked in stance) with this anthropometry
+(``problems/comparison_kneed_6link.toml``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .curves import fit_scores, gait_cycle
+from .fit import Candidate, FitOptions, FitResult, fit_gait
+from .fixed_point import find_fixed_point
+from .plots import plot_fit, plot_limit_cycle
+from .problem import load_problem
+from .simulate import Simulator
+
+PAPER_REPORTED = {"r2_knee": 0.891, "r2_hip": 0.899}
+COMPARISON_PROBLEM = "comparison_kneed_6link"
+
+
+def reference_gait(problem, human) -> dict:
+    """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
+    fp = find_fixed_point(problem)
+    out = {"problem": problem.name, "converged": fp.converged,
+           "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
+           "failure": fp.failure, "curves": None}
+    if not fp.converged:
+        return out
+    sim = Simulator(problem)
+    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    if one.failure is not None:
+        out["failure"] = one.failure.reason
+        return out
+    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+    out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
+               step_length_m=fp.step_length_m)
+    return out
+
+
+def _scores(d: dict) -> dict:
+    return {k: d[k] for k in ("r2_knee", "r2_hip", "r2_thigh") if k in d}
+
+
+def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
+    """The best stable valid candidate, else the best candidate at all (flagged)."""
+    if res.best is not None:
+        return res.best, True
+    if not res.candidates:
+        return None, False
+    t = res.targets
+    return max(res.candidates, key=lambda c: np.mean([c.scores[f"r2_{x}"] for x in t])), False
+
+
+def _table(rows: list[tuple[str, dict]]) -> str:
+    lines = ["| gait | knee R^2 | hip R^2 | thigh R^2 | spectral radius | stable |",
+             "|---|---|---|---|---|---|"]
+
+    def f(v, fmt="{:.3f}"):
+        return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
+            else fmt.format(v)
+
+    for name, d in rows:
+        stable = d.get("stable")
+        lines.append(f"| {name} | {f(d.get('r2_knee'))} | {f(d.get('r2_hip'))} | "
+                     f"{f(d.get('r2_thigh'))} | {f(d.get('spectral_radius'), '{:.4f}')} | "
+                     f"{'-' if stable is None else ('yes' if stable else 'no')} |")
+    return "\n".join(lines) + "\n"
+
+
+def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1,
+                   log=print) -> dict:
+    """Fit, compare with the references, write the report files into ``out``; the summary."""
+    out = Path(out)
+    log("reference: the problem's own compliance (Table 3) on the same data")
+    table3 = reference_gait(problem, human)
+    log("reference: the comparison walker (point feet, locked stance knee)")
+    comparison = reference_gait(load_problem(COMPARISON_PROBLEM), human)
+    res = fit_gait(problem, human, opts, log=log, workers=workers)
+    cand, ok = _pick(res)
+    h = human.resample(101)
+    curves = pd.DataFrame({"cycle_pct": h.cycle_pct, "human_knee_deg": h.knee_deg,
+                           "human_hip_deg": h.hip_deg})
+    if h.thigh_deg is not None:
+        curves["human_thigh_deg"] = h.thigh_deg
+    models, scores = {}, {}
+    for label, d in (("fit", {"curves": cand.curves} if cand else {}),
+                     ("table3", table3), ("comparison", comparison)):
+        c = d.get("curves")
+        if c is None:
+            continue
+        for col in ("knee_deg", "hip_deg", "thigh_deg"):
+            curves[f"{label}_{col}"] = c[col].to_numpy()
+    curves.to_csv(out / "curves.csv", index=False)
+    names = {"fit": "this fit", "table3": f"{problem.name}, Table 3 compliance",
+             "comparison": "comparison walker (point feet, locked knees)"}
+    if cand is not None:
+        models[names["fit"]] = cand.curves
+        scores[names["fit"]] = cand.scores
+    for key, d in (("table3", table3), ("comparison", comparison)):
+        if d.get("curves") is not None:
+            models[names[key]] = d["curves"]
+            scores[names[key]] = _scores(d)
+    plot_fit(h, models, out / "fit.png", scores=scores)
+
+    summary: dict = {"gait_file": str(human.source), "problem": problem.name,
+                     "targets": list(res.targets), "paper_reported": PAPER_REPORTED,
+                     "stable": False, "valid": False}
+    comp = {"table3": {**_scores(table3), "spectral_radius": table3["spectral_radius"],
+                       "stable": table3["stable"], "valid": table3["valid"]},
+            "comparison_walker": {**_scores(comparison),
+                                  "spectral_radius": comparison["spectral_radius"],
+                                  "stable": comparison["stable"], "problem": COMPARISON_PROBLEM}}
+    summary["comparison"] = comp
+    solver = {"solves": [s.to_dict() for s in res.solves],
+              "status": res.solves[-1].status if res.solves else None,
+              "iterations": int(sum(s.iterations for s in res.solves)),
+              "wall_time_s": res.wall_time_s, "starts": res.starts_frame().to_dict("records"),
+              "notes": res.notes}
+    summary["solver"] = solver
+    if cand is not None:
+        fp = cand.fixed_point
+        names_p = list(problem.parameter_names)
+        summary.update(cand.scores)
+        summary.update({
+            "compliance": dict(zip(names_p[:-1], map(float, cand.parameters[:-1]),
+                                   strict=True)),
+            "slope": float(cand.parameters[-1]),
+            "fixed_point": dict(zip(fp.state_names, map(float, cand.state), strict=True)),
+            "eigenvalues": [[float(e.real), float(e.imag)] for e in fp.eigenvalues],
+            "spectral_radius": fp.spectral_radius, "stable": bool(fp.stable),
+            "stability_margin": 1.0 - fp.spectral_radius, "max_radius": opts.max_radius,
+            "valid": bool(cand.valid), "failure": fp.failure, "margins": fp.margins,
+            "step_time_s": fp.step_time_s, "step_length_m": fp.step_length_m,
+            "speed_m_s": fp.step_length_m / fp.step_time_s,
+            "resimulation_deviation": cand.resimulation_deviation,
+            "resimulation_steps": 20, "accepted": ok})
+        sim = Simulator(problem)
+        two = sim.run(cand.state, cand.parameters, steps=2, record=True)
+        plot_limit_cycle(two.trajectory, out / "limit_cycle.png",
+                         title=f"{problem.name}, fitted compliance: one leg over two steps")
+    rows = [("paper, reported (its own four subjects)", PAPER_REPORTED),
+            ("Table 3 compliance, re-run here", {**_scores(table3),
+                                                  "spectral_radius": table3["spectral_radius"],
+                                                  "stable": table3["stable"]})]
+    if cand is not None:
+        rows.append(("this fit", {**cand.scores,
+                                  "spectral_radius": cand.fixed_point.spectral_radius,
+                                  "stable": cand.fixed_point.stable}))
+    rows.append(("comparison walker (point feet, locked knees)",
+                 {**_scores(comparison), "spectral_radius": comparison["spectral_radius"],
+                  "stable": comparison["stable"]}))
+    head = (f"# Fit of {problem.name} to {Path(str(human.source)).name}\n\n"
+            f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, MODEL.md).\n\n")
+    (out / "table.md").write_text(head + _table(rows))
+    if cand is None:
+        summary["headline"] = "no fit: " + "; ".join(res.notes or ["every start failed"])
+    else:
+        verdict = "stable, valid" if ok else "NOT ACCEPTED (unstable or invalid)"
+        summary["headline"] = (
+            f"r2_knee = {cand.scores['r2_knee']:.3f}  r2_hip = {cand.scores['r2_hip']:.3f}"
+            + (f"  r2_thigh = {cand.scores['r2_thigh']:.3f}" if "r2_thigh" in cand.scores
+               else "")
+            + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
+            f"Table 3: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
+            f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
+    from .cli import _write_json
+
+    _write_json(out / "summary.json", summary)
+    return summary

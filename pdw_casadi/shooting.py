@@ -1,0 +1,356 @@
+"""Multiple-shooting transcription of one periodic walking step (for IPOPT).
+
+The step is cut into *segments* of constant phase and mode, in the order a simulation of the
+starting gait visits them (:class:`~pdw_casadi.simulate.Plan`): phase I, phase II split at
+the knee events (swing-knee flexion/extension switch, swing-knee engagement at theta_eq,
+stance-knee disengagement at theta_dis), phase III. Each segment k has an unknown duration
+T_k and N_k shooting intervals of M_k fixed RK4 steps (the simulator's integrator, so the
+NLP's discrete map is the simulator's up to the step size); the step size h_k = T_k/(N_k M_k)
+is bounded above, which keeps the stiff swing-ankle damping inside RK4's stability region.
+
+Unknowns: the section state xs, the parameters p (compliance, slope), the durations T and
+the full states at every shooting node. Constraints (all exact, no smoothing):
+
+- start on the section: X_0,0 = section_to_full(xs, p);
+- continuity inside segments, the ending event g = 0 at each segment end, identity across
+  mode switches, the impact maps across transitions;
+- periodicity with the leg swap: full_to_section(foot-strike impact(X_end)) = xs;
+- the sign of every enabled event (guards, switches, failures) at the sampled RK4 states
+  inside each segment: no event is crossed early (sampled: grazing between samples is caught
+  by the re-simulation check of :mod:`pdw_casadi.fit`);
+- validity margins at the samples: contact normal forces ``N_*`` >= min_normal_force,
+  centre-of-pressure margins ``copmargin_*`` >= min_cop_margin, swing clearance
+  ``clearance_*`` >= min_clearance after 20 % of the phase (ramped from 0 at toe-off);
+  impact checks (impulses, post-impact velocities) > 0 and guard requirements > 0.
+
+Knee-spring engagement happens at its equilibrium angle by construction (the segment ends on
+the event theta = theta_eq), so engagement stores no energy (passivity).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .hybrid import GUARD, SWITCH, HybridSystem
+from .interval import compiled_interval, interval_output_names
+from .simulate import Segment, Simulator
+
+H_MAX_FACTOR = 1.25  # largest RK4 step in the NLP, in units of the simulator's step size
+#: margins are demanded this much beyond the problem's minimum (N or m), so that a binding
+#: margin still passes the simulator's strict check after IPOPT's 1e-8 feasibility
+MARGIN_SLACK = 1e-6
+N_SUB = 10  # RK4 steps per shooting interval (one compiled function per phase)
+
+
+@dataclass
+class SegmentSpec:
+    """One segment of the step: ``phase``, ``mode`` vector, ending ``event`` (index into the
+    phase's events), ``transition`` taken after it (None: a mode switch), intervals ``n_int``,
+    RK4 steps per interval ``n_sub``, starting duration ``duration0`` (s)."""
+
+    phase: str
+    mode: tuple[float, ...]
+    event: int
+    transition: str | None
+    n_int: int
+    n_sub: int
+    duration0: float
+    signs: dict[int, float] = field(default_factory=dict)  # event index -> required sign
+    gaps: dict[int, float] = field(default_factory=dict)  # event index -> required |g| margin
+    cross_sign: float = 0.0  # direction of the ending event's crossing in the starting gait
+    cross_rate0: float = 0.0  # its rate dg/dt there
+
+
+def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB) -> list[SegmentSpec]:
+    """Segment layout of one step from a simulator plan (see :class:`Plan`)."""
+    specs: list[SegmentSpec] = []
+    items = list(plan.items)
+    for i, item in enumerate(items):
+        if not isinstance(item, Segment):
+            continue
+        nxt = items[i + 1] if i + 1 < len(items) else None
+        tr = nxt[1] if isinstance(nxt, tuple) and nxt[0] == "transition" else None
+        ev = hs.event_list[item.phase][item.event]
+        if ev.kind not in (GUARD, SWITCH):
+            raise ValueError(f"plan segment ends on failure event {ev.name!r}")
+        dur = item.n * item.h + item.tau
+        n_int = max(1, int(math.ceil(dur / (n_sub * h))))
+        specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
+                                 dur))
+    return specs
+
+
+class ShootingNLP:
+    """The multiple-shooting NLP of one step of ``problem``'s walker (CasADi MX graph).
+
+    ``free`` selects which parameters are unknowns (names of the problem's parameter
+    vector); the others are fixed at ``p0``. ``objective(self) -> MX`` may be set by the
+    caller (the curve fit); by default the NLP is a pure feasibility problem.
+    """
+
+    def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
+                 sample_stride: int = 1, hs: HybridSystem | None = None):
+        self.problem = problem
+        self.sim = Simulator(problem, hs)
+        self.hs = hs = self.sim.hs
+        self.model = hs.model
+        self.h = self.sim.h
+        self.h_max = H_MAX_FACTOR * self.h
+        self.stride = sample_stride
+        self.p0 = np.asarray(p0, float).ravel()
+        x0 = np.asarray(x0, float).ravel()
+        run = self.sim.run(x0, self.p0, steps=1, record=False)
+        if run.failure is not None or run.completed_steps < 1:
+            raise ValueError(f"the starting gait fails: {run.failure}")
+        self.specs = segments_from_plan(hs, run.steps[0].plan, self.h, n_sub)
+        self.param_names = list(problem.parameter_names)
+        self.free = [n for n in self.param_names if n in free]
+        self._build()
+        self.w0 = self._initial_guess(x0)
+        self._signs_from_guess()
+        self._build_constraints()
+
+    # -- variables -------------------------------------------------------------------------
+    def _build(self):
+        hs, nx = self.hs, self.hs.nx
+        ns = len(self.model.state_names)
+        self.xs = ca.MX.sym("xs", ns)
+        self.pf = ca.MX.sym("p_free", len(self.free))
+        # free parameters are unknowns in units of their starting magnitude (k_knee ~ 100,
+        # theta_eq ~ 0.02): IPOPT's quasi-Newton model is far better conditioned so
+        self.p_scale = np.array([max(abs(self.p0[self.param_names.index(n)]), 1e-2)
+                                 for n in self.free])
+        parts = []
+        for name, v in zip(self.param_names, self.p0, strict=True):
+            if name in self.free:
+                j = self.free.index(name)
+                parts.append(self.p_scale[j] * self.pf[j])
+            else:
+                parts.append(ca.MX(v))
+        self.p = ca.vertcat(*parts)
+        self.T = ca.MX.sym("T", len(self.specs))
+        self.X = [ca.MX.sym(f"X{k}", nx, s.n_int + 1) for k, s in enumerate(self.specs)]
+        self.w = ca.vertcat(self.xs, self.pf, self.T, *[ca.vec(X) for X in self.X])
+        # the RK4 states and outputs inside every interval, in time order
+        self.samples: list[ca.MX] = []  # nx x (N M) per segment
+        self.Y: list[ca.MX] = []  # ny x (N M): phase outputs, then event functions
+        self.sample_t: list[ca.MX] = []  # time of each sample from the step start (s)
+        self.h_k: list[ca.MX] = []
+        t0 = ca.MX(0)
+        self.t_start: list[ca.MX] = []
+        for k, s in enumerate(self.specs):
+            hk = self.T[k] / (s.n_int * s.n_sub)
+            self.h_k.append(hk)
+            self.t_start.append(t0)
+            F = self._interval(s.phase, s.n_sub).map(s.n_int)
+            Xall, Yall = F(self.X[k][:, :-1], self.p, ca.DM(s.mode), hk)
+            self.samples.append(Xall)
+            self.Y.append(Yall)
+            idx = np.arange(1, s.n_int * s.n_sub + 1)
+            self.sample_t.append(t0 + hk * ca.DM(idx).T)
+            t0 = t0 + self.T[k]
+        self.step_time = t0
+
+    def _interval(self, phase: str, n_sub: int):
+        """M RK4 steps: (x, p, m, h) -> (states, outputs+events) at the M sample instants."""
+        return compiled_interval(self.hs, phase, n_sub)
+
+    def output_names(self, phase: str) -> list[str]:
+        """Rows of the segment outputs ``Y``: phase outputs, then ``event:<name>``."""
+        return interval_output_names(self.hs, phase)
+
+    def output(self, k: int, name: str) -> ca.MX:
+        """Output ``name`` of segment k at its RK4 samples (1 x N M)."""
+        return self.Y[k][self.output_names(self.specs[k].phase).index(name), :]
+
+    # -- initial guess -----------------------------------------------------------------------
+    def _initial_guess(self, x0) -> np.ndarray:
+        """Nodes from a forward pass of the NLP's own integrator over the plan's durations."""
+        hs = self.hs
+        p = self.p0
+        x = self.model.section_to_full(x0, p).full().ravel()
+        Xs = []
+        for s in self.specs:
+            h = s.duration0 / (s.n_int * s.n_sub)
+            F = self._interval(s.phase, s.n_sub)
+            cols = [x]
+            for _ in range(s.n_int):
+                x = F(x, p, s.mode, h)[0].full()[:, -1]
+                cols.append(x)
+            Xs.append(np.column_stack(cols))
+            if s.transition is not None:
+                x = hs.impact[s.transition](x, p)[0].full().ravel()
+        pf = [self.p0[self.param_names.index(n)] / sc for n, sc in zip(self.free, self.p_scale,
+                                                                          strict=True)]
+        T = [s.duration0 for s in self.specs]
+        return np.concatenate([x0, pf, T, *[X.ravel(order="F") for X in Xs]])
+
+    def _signs_from_guess(self):
+        """Required sign (and margin) of every enabled event inside each segment, from the guess.
+
+        An event that changes sign inside a segment of the guess without firing (a
+        one-directional event crossed the other way) gets no sign constraint. Events other
+        than the segment's own must also keep a margin from zero (1e-3 of their range in the
+        segment, at most half their smallest value there): a sampled sign constraint alone
+        lets a solution graze an event between samples, which the simulator would fire. An
+        event that is zero at the segment start (it just fired) only keeps its sign.
+        """
+        hs = self.hs
+        fun = ca.Function("events", [self.w], self.Y)
+        Ys = fun.call([self.w0])
+        for s, Y in zip(self.specs, Ys, strict=True):
+            names = self.output_names(s.phase)
+            g = Y.full()[len(names) - len(hs.event_list[s.phase]):, :]
+            mode = dict(zip(hs.mode_keys, s.mode, strict=True))
+            xe = self.X[self.specs.index(s)][:, -1]
+            xe = ca.Function("xe", [self.w], [xe])(self.w0)
+            rate = float(self._gdot(s.phase)(xe, self.p0, s.mode)[s.event])
+            s.cross_sign, s.cross_rate0 = float(np.sign(rate)), rate
+            for i, ev in enumerate(hs.event_list[s.phase]):
+                if not ev.enabled(mode):
+                    continue
+                gi = g[i, :-1] if i == s.event else g[i]
+                if not gi.size or not (np.all(gi > 0) or np.all(gi < 0)):
+                    continue
+                s.signs[i] = float(np.sign(gi[0]))
+                a = np.abs(gi)
+                gap = min(1e-3 * a.max(), 0.5 * a.min())
+                if i != s.event and a[0] > 10 * gap:
+                    s.gaps[i] = gap
+
+    # -- constraints -------------------------------------------------------------------------
+    def _build_constraints(self):
+        hs, model, p = self.hs, self.model, self.p
+        v = self.problem.validity
+        g, lb, ub, names = [], [], [], []
+
+        def add(expr, lo, hi, name):
+            expr = ca.vec(expr)
+            g.append(expr)
+            lb.append(np.full(expr.shape[0], lo))
+            ub.append(np.full(expr.shape[0], hi))
+            names.extend([name] * expr.shape[0])
+
+        add(self.X[0][:, 0] - model.section_to_full(self.xs, p), 0, 0, "section")
+        phase_start: dict[str, ca.MX] = {}
+        phase_len: dict[str, ca.MX] = {}
+        for k, s in enumerate(self.specs):
+            phase_start.setdefault(s.phase, self.t_start[k])
+            phase_len[s.phase] = phase_len.get(s.phase, 0) + self.T[k]
+        for k, s in enumerate(self.specs):
+            X, S, Y = self.X[k], self.samples[k], self.Y[k]
+            M = s.n_sub
+            add(X[:, 1:] - S[:, M - 1::M], 0, 0, f"continuity[{k}]")
+            onames = self.output_names(s.phase)
+            evs = hs.event_list[s.phase]
+            e0 = len(onames) - len(evs)
+            add(Y[e0 + s.event, -1], 0, 0, f"guard[{k}]:{evs[s.event].name}")
+            # transversality: the ending event is crossed at a rate of at least half the
+            # starting gait's; a grazing crossing makes the step map hypersensitive (the
+            # saltation term divides by this rate) and the event order fragile
+            mv = ca.DM(s.mode)
+            rate = self._gdot(s.phase)(X[:, -1], p, mv)[s.event]
+            add(s.cross_sign * rate, 0.5 * abs(s.cross_rate0), ca.inf,
+                f"transversality[{k}]:{evs[s.event].name}")
+            cols = list(range(self.stride - 1, Y.shape[1], self.stride))
+            if cols[-1] != Y.shape[1] - 1:
+                cols.append(Y.shape[1] - 1)
+            inner = cols[:-1]
+            for i, sign in s.signs.items():
+                at = inner if i == s.event else cols
+                if at:
+                    add(sign * Y[e0 + i, at], s.gaps.get(i, 0.0), ca.inf,
+                        f"sign[{k}]:{evs[i].name}")
+            mv = ca.DM(s.mode)
+            if evs[s.event].require is not None:
+                add(hs.require[s.phase](X[:, -1], p, mv)[s.event], 0, ca.inf,
+                    f"require[{k}]:{evs[s.event].require_reason}")
+            # validity margins at the samples and at the segment's start node (right after an
+            # impact the contact forces jump)
+            ts = self.sample_t[k]
+            y0 = self._y0(s.phase)(X[:, 0], p, mv)
+            for j, name in enumerate(onames[:e0]):
+                row = ca.horzcat(y0[j], Y[j, cols])
+                if name.startswith("N_"):
+                    add(row, v.get("min_normal_force", 0.0) + MARGIN_SLACK, ca.inf,
+                        f"margin[{k}]:{name}")
+                elif name.startswith("copmargin_"):
+                    add(row, v.get("min_cop_margin", 0.0) + MARGIN_SLACK, ca.inf,
+                        f"margin[{k}]:{name}")
+                elif name.startswith("clearance_"):
+                    # the simulator's margin counts after 20 % of the phase; before that the
+                    # demand ramps up from zero (the toe leaves the ground at toe-off)
+                    tc = ca.horzcat(self.t_start[k], ts[cols])
+                    frac = (tc - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
+                    need = v.get("min_clearance", 0.0) * ca.fmax(0, ca.fmin(1, 2 * frac - 1))
+                    add(row - need, MARGIN_SLACK, ca.inf, f"margin[{k}]:{name}")
+            xe = X[:, -1]
+            if s.transition is not None:
+                x_plus, _, chk, _ = hs.impact[s.transition](xe, p)
+                if chk.shape[0]:
+                    add(chk, 1e-9, ca.inf, f"impact_check[{s.transition}]")
+                if k + 1 < len(self.specs):
+                    add(self.X[k + 1][:, 0] - x_plus, 0, 0, f"impact[{s.transition}]")
+                else:
+                    add(model.full_to_section(x_plus) - self.xs, 0, 0, "periodicity")
+            else:
+                add(self.X[k + 1][:, 0] - xe, 0, 0, f"switch[{k}]")
+        self.g = ca.vertcat(*g)
+        self.lbg = np.concatenate(lb)
+        self.ubg = np.concatenate(ub)
+        self.g_names = names
+
+    def _gdot(self, phase: str) -> ca.Function:
+        """Rates of change of the phase's event functions along the flow, dg/dt."""
+        hs = self.hs
+        x, p, m = hs.x_sym, self.model.p, self.model.m
+        g = hs.events[phase].fun(x, p, m)
+        f = hs.rhs[phase](x, p, m)
+        return ca.Function(f"gdot_{phase}", [x, p, m], [ca.mtimes(ca.jacobian(g, x), f)])
+
+    def _y0(self, phase: str) -> ca.Function:
+        hs = self.hs
+        x, p, m = hs.x_sym, self.model.p, self.model.m
+        return ca.Function(f"y0_{phase}", [x, p, m], [hs.outputs[phase].fun(x, p, m)])
+
+    def violations(self, w) -> list[tuple[str, float]]:
+        """Constraint violations at ``w``, largest first (name, amount)."""
+        gv = ca.Function("g", [self.w], [self.g])(w).full().ravel()
+        viol = np.maximum(self.lbg - gv, 0) + np.maximum(gv - self.ubg, 0)
+        order = np.argsort(-viol)
+        return [(self.g_names[i], float(viol[i])) for i in order if viol[i] > 0]
+
+    # -- bounds ------------------------------------------------------------------------------
+    def bounds(self, slope_bounds=(0.02, 0.30), t_min: float = 1e-3):
+        """Lower and upper bounds of the unknowns (compliance from the problem file).
+
+        ``t_min`` (s): shortest segment. The event order is part of the assumed gait
+        pattern; a segment shrinking to nothing would let two events coincide, where the
+        simulator's order (and the gait) is no longer the NLP's.
+        """
+        n = self.w.shape[0]
+        lo, hi = np.full(n, -np.inf), np.full(n, np.inf)
+        ns = self.xs.shape[0]
+        cb = self.problem.compliance_bounds
+        for j, name in enumerate(self.free):
+            b = slope_bounds if name == "slope" else cb.get(name, (-np.inf, np.inf))
+            lo[ns + j], hi[ns + j] = np.asarray(b, float) / self.p_scale[j]
+        o = ns + len(self.free)
+        for k, s in enumerate(self.specs):
+            lo[o + k] = t_min
+            hi[o + k] = s.n_int * s.n_sub * self.h_max
+        return lo, hi
+
+    def unpack(self, w) -> dict:
+        """The section state, full parameter vector and durations of a solution vector."""
+        w = np.asarray(w, float).ravel()
+        ns = self.xs.shape[0]
+        nf = len(self.free)
+        p = self.p0.copy()
+        for j, name in enumerate(self.free):
+            p[self.param_names.index(name)] = w[ns + j] * self.p_scale[j]
+        return {"xs": w[:ns], "p": p, "T": w[ns + nf: ns + nf + len(self.specs)]}
