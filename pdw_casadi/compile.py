@@ -115,7 +115,8 @@ class Native:
         self._shape_out = []  # (rows, cols, None) dense, or (rows, cols, (r, c)) triplets
         for i in range(fun.n_out()):
             sp = fun.sparsity_out(i)
-            tri = None if sp.is_dense() else tuple(np.array(v) for v in sp.get_triplet())
+            tri = None if sp.is_dense() else tuple(np.array(v, dtype=np.intp)
+                                                       for v in sp.get_triplet())
             self._shape_out.append((sp.size1(), sp.size2(), tri))
         self._iw = np.zeros(n_iw, dtype=np.int64)
         self._w = np.zeros(n_w)

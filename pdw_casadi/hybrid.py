@@ -242,9 +242,9 @@ class HybridSystem:
                 f"impact_{tr.name}", [x, p],
                 [x_plus, subs_x(tr.impulse), subs_x(chk), x_post],
                 ["x", "p"], ["x_plus", "impulse", "checks", "x_post"]))
-            self.impact_jac[tr.name] = ca.Function(
+            self.impact_jac[tr.name] = Lazy(ca.Function(
                 f"impact_jac_{tr.name}", [x, p],
-                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)])
+                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]))
         self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
         e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
         # Lazy: called a few times per step by the simulator (``.np``); ``(...)`` gives DMs

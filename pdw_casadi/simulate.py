@@ -281,8 +281,12 @@ class Simulator:
 
     # -- whole steps -----------------------------------------------------------------------
     def run(self, x_section, p, steps: int = 1, record: bool = True,
-            mode: dict | None = None, progress=None) -> SimulationResult:
-        """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``."""
+            mode: dict | None = None, progress=None, margins: bool = False) -> SimulationResult:
+        """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``.
+
+        ``record``: build the trajectory DataFrame (and the steps' validity margins);
+        ``margins``: only the margins (``StepRecord.margins``), without the DataFrame.
+        """
         hs = self.hs
         model = hs.model
         p = np.asarray(p, dtype=float).ravel()
@@ -290,7 +294,7 @@ class Simulator:
         x = hs.section_to_full.np(xs, p).ravel()
         mode = dict(mode or model.initial_mode)
         t = 0.0
-        rec = [] if record else None
+        rec = [] if record or margins else None
         event_rows: list[dict] = []
         records: list[StepRecord] = []
         failure = None
@@ -379,11 +383,21 @@ class Simulator:
         if rec is None:
             return
         names = self.hs.output_names[phase]
-        for ph, mv, ts, X, _ in rec[n_rec:]:
+        entries = rec[n_rec:]
+        i = 0
+        while i < len(entries):
+            # one call for each run of entries in the same mode (not one per chunk)
+            ph, mv = entries[i][0], entries[i][1]
+            j = i + 1
+            while j < len(entries) and entries[j][0] == ph and entries[j][1] == mv:
+                j += 1
+            ts = np.concatenate([e[2] for e in entries[i:j]])
+            X = np.hstack([e[3] for e in entries[i:j]])
+            i = j
             out = self.hs.outputs[ph](X, p, mv).full()
             late = ts >= t0 + 0.2 * dt
-            for j, name in enumerate(names):
-                vals = out[j]
+            for j_, name in enumerate(names):
+                vals = out[j_]
                 if name.startswith("clearance_"):
                     vals = vals[late]
                 elif not name.startswith(("N_", "copmargin_")):
