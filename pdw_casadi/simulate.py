@@ -102,17 +102,29 @@ class StepRecord:
         }
 
 
+EVENT_COLUMNS = ["step", "phase", "event", "t", "kind"]
+
+
 @dataclass
 class SimulationResult:
     """Trajectory (DataFrame), events table, per-step records and the failure, if any."""
 
     trajectory: pd.DataFrame | None
-    events: pd.DataFrame
+    # the events table, kept as rows until first read: building a DataFrame costs about
+    # as much as simulating a tenth of a step, and Newton / sweeps never read it
+    _events: pd.DataFrame | list
     steps: list[StepRecord]
     failure: Failure | None
     state_names: tuple[str, ...]
     final_state: np.ndarray
     final_mode: dict
+
+    @property
+    def events(self) -> pd.DataFrame:
+        """One row per guard, mode switch and failure: step, phase, event, t (s), kind."""
+        if not isinstance(self._events, pd.DataFrame):
+            self._events = pd.DataFrame(self._events, columns=EVENT_COLUMNS)
+        return self._events
 
     @property
     def completed_steps(self) -> int:
@@ -371,8 +383,7 @@ class Simulator:
             if progress is not None:
                 progress(k + 1)
         traj = self._trajectory(rec, records, p) if record else None
-        ev = pd.DataFrame(event_rows, columns=["step", "phase", "event", "t", "kind"])
-        return SimulationResult(traj, ev, records, failure, model.state_names, x, mode)
+        return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
         """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
