@@ -152,16 +152,16 @@ class Simulator:
         self.t_max = float(problem.numerics["max_phase_time"])
 
     # -- one phase -------------------------------------------------------------------------
-    def _locate(self, phase, x, p, mv, idx, h, g_lo):
+    def _locate(self, phase, x, p, mv, idx, h, g_lo, g_hi):
         """Smallest tau in (0, h] at which event ``idx`` crosses zero (safeguarded Newton).
 
         Newton on g(step(x, tau)) with a bracket kept by sign; stops on a tau update below
         :data:`TAU_TOL` after g has changed sign across the bracket (so the root is inside).
-        ``g_lo``: the event's value at x (known from the chunk).
+        ``g_lo``, ``g_hi``: the event's values at x and one full step later (from the chunk;
+        they only seed the first secant guess).
         """
         loc = self.hs.locate[phase].np
         lo, hi = 0.0, h
-        g_hi = float(loc(x, h, p, mv)[0][idx, 0])
         tau = h * g_lo / (g_lo - g_hi) if g_lo != g_hi else 0.5 * h
         tau = min(max(tau, 0.0), h)
         for _ in range(100):
@@ -248,8 +248,8 @@ class Simulator:
                             self._step))
             t += hit_k * h
             n_full += hit_k
-            taus = [(self._locate(phase, x_before, p, mv, i, h, float(Gp[i, hit_k])), int(i))
-                    for i in hits]
+            taus = [(self._locate(phase, x_before, p, mv, i, h, float(Gp[i, hit_k]),
+                                  float(G[i, hit_k])), int(i)) for i in hits]
             tau, idx = min(taus)
             x_e = step(x_before, tau, p, mv).ravel()
             t += tau
