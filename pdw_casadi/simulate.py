@@ -203,12 +203,13 @@ class Simulator:
         evs = hs.event_list[phase]
         mode = hs.refresh_indicators(phase, x, p, mode)
         mv = hs.mode_vector(mode)
+        mva = np.array(mv)  # for the compiled calls (a list costs a conversion per call)
         x = np.asarray(x, float).ravel()
         if rec is not None:
             rec.append((phase, mv, np.array([t0]), x.reshape(-1, 1), self._step))
         enabled = np.array([e.enabled(mode) for e in evs])
         events, step = hs.events[phase].np, hs.step[phase].np
-        g_prev = events(x, p, mv).ravel()
+        g_prev = events(x, p, mva).ravel()
         arm = np.array([e.arm_above for e in evs])
         self._arm, self._arm_idx = arm, np.flatnonzero(arm > 0)
         self._dir = np.array([e.direction for e in evs])
@@ -219,7 +220,7 @@ class Simulator:
         chunk = hs.chunk[phase].np
         en = np.flatnonzero(enabled)
         while True:
-            X, G = chunk(x, h, p, mv)
+            X, G = chunk(x, h, p, mva)
             # most chunks cross nothing: if no enabled event's sign (-1, 0, +1) ever differs
             # from its value before the chunk, no crossing is possible (arming only removes
             # crossings); only otherwise build the exact directional, armed test
@@ -248,12 +249,12 @@ class Simulator:
                             self._step))
             t += hit_k * h
             n_full += hit_k
-            taus = [(self._locate(phase, x_before, p, mv, i, h, float(Gp[i, hit_k]),
+            taus = [(self._locate(phase, x_before, p, mva, i, h, float(Gp[i, hit_k]),
                                   float(G[i, hit_k])), int(i)) for i in hits]
             tau, idx = min(taus)
-            x_e = step(x_before, tau, p, mv).ravel()
+            x_e = step(x_before, tau, p, mva).ravel()
             t += tau
-            g_e = events(x_e, p, mv).ravel()
+            g_e = events(x_e, p, mva).ravel()
             ev = evs[idx]
             sign = 1 if Gp[idx, hit_k] < 0 else -1  # crossing direction
             if rec is not None:
@@ -264,7 +265,7 @@ class Simulator:
                 return x_e, mode, t, ev, ev.name
             if ev.kind == GUARD:
                 if ev.require is not None:
-                    req = float(hs.require[phase].np(x_e, p, mv)[idx, 0])
+                    req = float(hs.require[phase].np(x_e, p, mva)[idx, 0])
                     if req <= 0:
                         return x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid"
                 return x_e, mode, t, ev, None
@@ -277,7 +278,7 @@ class Simulator:
             new_mv = hs.mode_vector(mode)
             self._spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
             self._switches.append((phase, ev.name, t0 + t))
-            mv = new_mv
+            mv, mva = new_mv, np.array(new_mv)
             enabled = np.array([e.enabled(mode) for e in evs])
             en = np.flatnonzero(enabled)
             armed |= (Gp[:, : hit_k + 1] > arm[:, None]).any(axis=1)
