@@ -221,6 +221,8 @@ class Lazy:
         self._np = None
 
     def __call__(self, *args):
+        if any(isinstance(a, ca.SX | ca.MX) for a in args):
+            return self.fun(*args)  # symbolic use (e.g. in an NLP): keep CasADi's derivatives
         if self._fast is None:
             self._fast = compiled(self.fun, self.flags)
         return self._fast(*args)

@@ -23,11 +23,16 @@ def test_native_call_matches_casadi(tmp_path, monkeypatch):
     for _ in range(3):
         args = (rng.normal(size=3), float(rng.normal()), list(rng.normal(size=2)))
         ref = [np.asarray(v) for v in fun(*args)]
-        for got in (lazy.np(*args), _interpreted(fun)(*args)):
+        dm = [np.asarray(v) for v in lazy(*args)]
+        for got in (dm, lazy.np(*args), _interpreted(fun)(*args)):
             assert len(got) == 3
             for r, g in zip(ref, got, strict=True):
                 assert g.shape == r.shape
                 np.testing.assert_array_equal(g, r)
+    # symbolic arguments go to the CasADi function itself (derivatives stay available)
+    xs = ca.SX.sym("xs", 3)
+    jac = ca.jacobian(lazy(xs, 1.0, [0.0, 0.0])[0], xs)
+    assert jac.shape == (3, 3)
 
 
 def test_constrained_dynamics_solve_the_kkt_system(hs, table2_step, params):
