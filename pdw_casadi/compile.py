@@ -5,10 +5,17 @@ sensitivities) are evaluated thousands of times per step; compiled they run abou
 faster than in CasADi's virtual machine. Libraries are cached by a hash of the serialized
 function in ``$PDW_CACHE`` (default ``~/.cache/pdw_casadi``), so a walker is compiled once
 per machine. ``PDW_NO_COMPILE=1`` (or a missing C compiler) falls back to the interpreter.
+
+Calling a CasADi function from Python costs about 80 us (numpy -> DM conversions of every
+argument), more than a whole chunk of RK4 steps computes. Hot loops therefore call the
+compiled library directly through ctypes (:class:`Native`, about 3 us per call) with numpy
+arrays in and out: ``Lazy.np`` / ``LazyGroup.np``. Without a compiler, ``np`` calls the
+CasADi function and converts its outputs, with identical results.
 """
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import os
 import shutil
@@ -18,6 +25,7 @@ import threading
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 _LOCK = threading.Lock()
 
@@ -33,18 +41,11 @@ def compiler() -> str | None:
     return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
 
 
-def compiled(fun, flags: tuple[str, ...] = ("-O1",)):
-    """``fun`` compiled to a cached shared library (or ``fun`` itself if no compiler).
-
-    ``fun`` may be a list of functions: they go into one library, so that functions they
-    share (a right-hand side and its Jacobian) are compiled once; a list is returned.
-    ``-O1`` pays off for functions that loop internally (a chunk of steps); for large
-    straight-line expressions gcc's optimiser costs minutes for little gain, use ``-O0``.
-    """
-    funs = list(fun) if isinstance(fun, list | tuple) else [fun]
+def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
+    """Path of the cached shared library holding ``funs`` (built if missing), or None."""
     cc = compiler()
     if cc is None:
-        return funs if isinstance(fun, list | tuple) else fun
+        return None
     text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
     key = hashlib.sha1(text.encode()).hexdigest()[:20]
     name = funs[0].name()
@@ -62,10 +63,113 @@ def compiled(fun, flags: tuple[str, ...] = ("-O1",)):
                 res = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(out),
                                       str(Path(tmp) / src)], capture_output=True, text=True)
                 if res.returncode != 0:
-                    return fun
+                    return None
                 os.replace(out, so)  # atomic: concurrent processes never see half a file
+    return so
+
+
+def compiled(fun, flags: tuple[str, ...] = ("-O1",)):
+    """``fun`` compiled to a cached shared library (or ``fun`` itself if no compiler).
+
+    ``fun`` may be a list of functions: they go into one library, so that functions they
+    share (a right-hand side and its Jacobian) are compiled once; a list is returned.
+    ``-O1`` pays off for functions that loop internally (a chunk of steps); for large
+    straight-line expressions gcc's optimiser costs minutes for little gain, use ``-O0``.
+    """
+    funs = list(fun) if isinstance(fun, list | tuple) else [fun]
+    so = _library(funs, flags)
+    if so is None:
+        return fun
     ext = [ca.external(f.name(), str(so)) for f in funs]
     return ext if isinstance(fun, list | tuple) else ext[0]
+
+
+_INT = ctypes.c_longlong  # casadi_int of the generated code
+_PTR = ctypes.POINTER(ctypes.c_double)
+
+
+class Native:
+    """A compiled CasADi function called directly through ctypes: numpy arrays in and out.
+
+    Arguments are copied into preallocated buffers (any array-like of the input's size, or
+    a float), outputs are returned as new 2-D arrays (rows x columns, like ``DM.full()``);
+    a single output is returned bare, several as a tuple. A lock makes the shared work
+    buffers safe across threads.
+    """
+
+    def __init__(self, fun: ca.Function, so: Path):
+        lib = ctypes.CDLL(str(so))
+        name = fun.name()
+        self._call = getattr(lib, name)
+        self._call.restype = ctypes.c_int
+        getattr(lib, name + "_incref")()
+        mem = getattr(lib, name + "_checkout")()  # this object's memory slot, kept for life
+        sz = [_INT() for _ in range(4)]
+        getattr(lib, name + "_work")(*(ctypes.byref(v) for v in sz))
+        n_arg, n_res, n_iw, n_w = (max(int(v.value), 1) for v in sz)
+        self._in = [np.zeros(fun.nnz_in(i)) for i in range(fun.n_in())]
+        self._out = [np.zeros(fun.nnz_out(i)) for i in range(fun.n_out())]
+        for i in range(fun.n_in()):
+            if not fun.sparsity_in(i).is_dense():
+                raise ValueError(f"{name}: sparse input {i} is not supported")
+        self._shape_out = []  # (rows, cols, None) dense, or (rows, cols, (r, c)) triplets
+        for i in range(fun.n_out()):
+            sp = fun.sparsity_out(i)
+            tri = None if sp.is_dense() else tuple(np.array(v, dtype=np.intp)
+                                                       for v in sp.get_triplet())
+            self._shape_out.append((sp.size1(), sp.size2(), tri))
+        self._iw = np.zeros(n_iw, dtype=np.int64)
+        self._w = np.zeros(n_w)
+        self._arg = (_PTR * n_arg)(*[b.ctypes.data_as(_PTR) for b in self._in])
+        self._res = (_PTR * n_res)(*[b.ctypes.data_as(_PTR) for b in self._out])
+        self._args = (self._arg, self._res, self._iw.ctypes.data_as(ctypes.POINTER(_INT)),
+                      self._w.ctypes.data_as(_PTR), ctypes.c_int(mem))
+        self._lock = threading.Lock()
+
+    def __call__(self, *args):
+        with self._lock:
+            for buf, a in zip(self._in, args, strict=True):
+                if type(a) is np.ndarray and a.ndim == 1:
+                    buf[:] = a
+                elif isinstance(a, _SCALAR):
+                    buf[0] = a
+                else:
+                    buf[:] = np.ravel(a, order="F")
+            if self._call(*self._args) != 0:
+                raise RuntimeError("compiled CasADi function failed")
+            outs = [self._dense(k) for k in range(len(self._out))]
+        return outs[0] if len(outs) == 1 else tuple(outs)
+
+    def _dense(self, k):
+        rows, cols, tri = self._shape_out[k]
+        if tri is None:
+            return self._out[k].reshape((rows, cols), order="F").copy(order="F")
+        full = np.zeros((rows, cols))
+        full[tri[0], tri[1]] = self._out[k]
+        return full
+
+
+_SCALAR = (float, int)
+
+
+def _interpreted(fun: ca.Function):
+    """Fallback for :class:`Native`: the CasADi function, outputs as numpy arrays."""
+
+    def call(*args):
+        outs = fun.call([np.asarray(a, float).reshape(-1, 1, order="F")
+                         if not isinstance(a, float | int) else a for a in args])
+        outs = [np.asarray(o, float) for o in outs]
+        return outs[0] if len(outs) == 1 else tuple(outs)
+
+    return call
+
+
+def native(funs: list, flags: tuple[str, ...]) -> list:
+    """Numpy-level callables of ``funs`` compiled together (interpreted without a compiler)."""
+    so = _library(funs, flags)
+    if so is None:
+        return [_interpreted(f) for f in funs]
+    return [Native(f, so) for f in funs]
 
 
 class LazyGroup:
@@ -75,6 +179,7 @@ class LazyGroup:
         self.funs = funs
         self.flags = flags
         self._fast: dict | None = None
+        self._np: dict | None = None
 
     def __getitem__(self, key):
         group = self
@@ -88,19 +193,44 @@ class LazyGroup:
 
         return call
 
+    def np(self, key):
+        """Numpy-level callable of function ``key`` (see :class:`Native`)."""
+        group = self
+
+        def call(*args):
+            if group._np is None:
+                keys = list(group.funs)
+                group._np = dict(zip(keys, native([group.funs[k] for k in keys],
+                                                  group.flags), strict=True))
+            return group._np[key](*args)
+
+        return call
+
 
 class Lazy:
-    """A CasADi function compiled on first call (calls with the same signature as ``fun``)."""
+    """A CasADi function compiled on first call (calls with the same signature as ``fun``).
+
+    ``lazy(...)`` returns CasADi DMs like the function; ``lazy.np(...)`` takes and returns
+    numpy arrays through :class:`Native` (for hot loops).
+    """
 
     def __init__(self, fun: ca.Function, flags: tuple[str, ...] = ("-O0",)):
         self.fun = fun
         self.flags = flags
         self._fast: ca.Function | None = None
+        self._np = None
 
     def __call__(self, *args):
+        if any(isinstance(a, ca.SX | ca.MX) for a in args):
+            return self.fun(*args)  # symbolic use (e.g. in an NLP): keep CasADi's derivatives
         if self._fast is None:
             self._fast = compiled(self.fun, self.flags)
         return self._fast(*args)
+
+    def np(self, *args):
+        if self._np is None:
+            self._np = native([self.fun], self.flags)[0]
+        return self._np(*args)
 
     def __getattr__(self, item):
         return getattr(self.fun, item)

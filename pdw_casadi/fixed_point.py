@@ -205,7 +205,7 @@ def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
 
 def _finish(problem, P, x, p, converged, it, method, t_start, history) -> FixedPointResult:
     try:
-        r = P.evaluate(x, p, jacobian=True, record=True)
+        r = P.evaluate(x, p, jacobian=True, margins=True)  # margins, no trajectory frame
     except PoincareError as exc:
         nan = np.full((x.size, x.size), np.nan)
         return FixedPointResult(

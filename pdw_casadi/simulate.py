@@ -102,17 +102,29 @@ class StepRecord:
         }
 
 
+EVENT_COLUMNS = ["step", "phase", "event", "t", "kind"]
+
+
 @dataclass
 class SimulationResult:
     """Trajectory (DataFrame), events table, per-step records and the failure, if any."""
 
     trajectory: pd.DataFrame | None
-    events: pd.DataFrame
+    # the events table, kept as rows until first read: building a DataFrame costs about
+    # as much as simulating a tenth of a step, and Newton / sweeps never read it
+    _events: pd.DataFrame | list
     steps: list[StepRecord]
     failure: Failure | None
     state_names: tuple[str, ...]
     final_state: np.ndarray
     final_mode: dict
+
+    @property
+    def events(self) -> pd.DataFrame:
+        """One row per guard, mode switch and failure: step, phase, event, t (s), kind."""
+        if not isinstance(self._events, pd.DataFrame):
+            self._events = pd.DataFrame(self._events, columns=EVENT_COLUMNS)
+        return self._events
 
     @property
     def completed_steps(self) -> int:
@@ -140,21 +152,21 @@ class Simulator:
         self.t_max = float(problem.numerics["max_phase_time"])
 
     # -- one phase -------------------------------------------------------------------------
-    def _locate(self, phase, x, p, mv, idx, h):
+    def _locate(self, phase, x, p, mv, idx, h, g_lo, g_hi):
         """Smallest tau in (0, h] at which event ``idx`` crosses zero (safeguarded Newton).
 
         Newton on g(step(x, tau)) with a bracket kept by sign; stops on a tau update below
         :data:`TAU_TOL` after g has changed sign across the bracket (so the root is inside).
+        ``g_lo``, ``g_hi``: the event's values at x and one full step later (from the chunk;
+        they only seed the first secant guess).
         """
-        loc = self.hs.locate[phase]
+        loc = self.hs.locate[phase].np
         lo, hi = 0.0, h
-        g_lo = float(self.hs.events[phase](x, p, mv)[idx])
-        g_hi = float(loc(x, h, p, mv)[0][idx])
         tau = h * g_lo / (g_lo - g_hi) if g_lo != g_hi else 0.5 * h
         tau = min(max(tau, 0.0), h)
         for _ in range(100):
             g, dg, _ = loc(x, tau, p, mv)
-            g, dg = float(g[idx]), float(dg[idx])
+            g, dg = float(g[idx, 0]), float(dg[idx, 0])
             if g == 0.0:
                 return tau
             if (g > 0) == (g_lo > 0):
@@ -169,49 +181,57 @@ class Simulator:
             tau = new
         return tau
 
+    def _crossings(self, Gp, G, enabled, armed):
+        """Mask (events x steps) of enabled events crossing zero in their direction between
+        the columns of Gp (values before each step) and G (after)."""
+        a = Gp
+        if self._arm_idx.size:
+            a = Gp.copy()
+            for i in self._arm_idx:
+                # an armed event counts only once g has exceeded arm_above in this phase
+                seen = np.maximum.accumulate(Gp[i] > self._arm[i]) | armed[i]
+                a[i] = np.where(seen, Gp[i], -np.inf if self._dir[i] <= 0 else np.inf)
+        down = (a > 0) & (G <= 0)
+        up = (a < 0) & (G >= 0)
+        d = self._dir[:, None]
+        mask = np.where(d < 0, down, np.where(d > 0, up, down | up))
+        return mask & enabled[:, None]
+
     def run_phase(self, phase, x, p, mode, t0, rec, plan):
         """Integrate one phase from x until its guard; returns (x_end, mode, t, event, fail)."""
         hs, h = self.hs, self.h
         evs = hs.event_list[phase]
         mode = hs.refresh_indicators(phase, x, p, mode)
         mv = hs.mode_vector(mode)
+        mva = np.array(mv)  # for the compiled calls (a list costs a conversion per call)
+        x = np.asarray(x, float).ravel()
         if rec is not None:
-            rec.append((phase, mv, np.array([t0]), np.asarray(x, float).reshape(-1, 1),
-                        self._step))
-        enabled = [e.enabled(mode) for e in evs]
-        g_prev = hs.events[phase](x, p, mv).full().ravel()
+            rec.append((phase, mv, np.array([t0]), x.reshape(-1, 1), self._step))
+        enabled = np.array([e.enabled(mode) for e in evs])
+        events, step = hs.events[phase].np, hs.step[phase].np
+        g_prev = events(x, p, mva).ravel()
         arm = np.array([e.arm_above for e in evs])
+        self._arm, self._arm_idx = arm, np.flatnonzero(arm > 0)
+        self._dir = np.array([e.direction for e in evs])
         armed = g_prev > arm
         t = 0.0
         n_full = 0
         K = hs.chunk_size
-        chunk = hs.chunk[phase]
+        chunk = hs.chunk[phase].np
+        en = np.flatnonzero(enabled)
         while True:
-            X, G = chunk(x, h, p, mv)
-            X, G = X.full(), G.full()
-            Gp = np.column_stack([g_prev, G[:, :-1]])
-            hit_k, hits = None, []
-            for i, e in enumerate(evs):
-                if not enabled[i]:
-                    continue
-                a, b = Gp[i], G[i]
-                if arm[i] > 0:
-                    seen = np.maximum.accumulate(a > arm[i]) | armed[i]
-                    a = np.where(seen, a, -np.inf if e.direction <= 0 else np.inf)
-                if e.direction < 0:
-                    mask = (a > 0) & (b <= 0)
-                elif e.direction > 0:
-                    mask = (a < 0) & (b >= 0)
-                else:
-                    mask = ((a > 0) & (b <= 0)) | ((a < 0) & (b >= 0))
-                ks = np.flatnonzero(mask)
-                if ks.size:
-                    k = int(ks[0])
-                    if hit_k is None or k < hit_k:
-                        hit_k, hits = k, [i]
-                    elif k == hit_k:
-                        hits.append(i)
-            if hit_k is None:
+            X, G = chunk(x, h, p, mva)
+            # most chunks cross nothing: if no enabled event's sign (-1, 0, +1) ever differs
+            # from its value before the chunk, no crossing is possible (arming only removes
+            # crossings); only otherwise build the exact directional, armed test
+            Ge = G[en]
+            if (np.sign(Ge) == np.sign(g_prev[en])[:, None]).all():
+                cols = ()
+            else:
+                Gp = np.column_stack([g_prev, G[:, :-1]])
+                mask = self._crossings(Gp, G, enabled, armed)
+                cols = np.flatnonzero(mask.any(axis=0))
+            if len(cols) == 0:
                 if rec is not None:
                     rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, self._step))
                 x, g_prev = X[:, -1], G[:, -1]
@@ -221,28 +241,31 @@ class Simulator:
                 if t > self.t_max:
                     return x, mode, t, None, "guard_not_reached"
                 continue
-            x_before = X[:, hit_k - 1] if hit_k > 0 else np.asarray(x).ravel()
+            hit_k = int(cols[0])
+            hits = np.flatnonzero(mask[:, hit_k])
+            x_before = X[:, hit_k - 1] if hit_k > 0 else x
             if rec is not None and hit_k > 0:
                 rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k],
                             self._step))
             t += hit_k * h
             n_full += hit_k
-            taus = [(self._locate(phase, x_before, p, mv, i, h), i) for i in hits]
+            taus = [(self._locate(phase, x_before, p, mva, i, h, float(Gp[i, hit_k]),
+                                  float(G[i, hit_k])), int(i)) for i in hits]
             tau, idx = min(taus)
-            x_e = hs.step[phase](x_before, tau, p, mv).full().ravel()
+            x_e = step(x_before, tau, p, mva).ravel()
             t += tau
-            g_e = hs.events[phase](x_e, p, mv).full().ravel()
+            g_e = events(x_e, p, mva).ravel()
             ev = evs[idx]
             sign = 1 if Gp[idx, hit_k] < 0 else -1  # crossing direction
             if rec is not None:
                 rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], self._step))
-            plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, idx, sign))
+            plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, int(idx), sign))
             n_full = 0
             if ev.kind == FAILURE:
                 return x_e, mode, t, ev, ev.name
             if ev.kind == GUARD:
                 if ev.require is not None:
-                    req = float(hs.require[phase](x_e, p, mv)[idx])
+                    req = float(hs.require[phase].np(x_e, p, mva)[idx, 0])
                     if req <= 0:
                         return x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid"
                 return x_e, mode, t, ev, None
@@ -255,31 +278,36 @@ class Simulator:
             new_mv = hs.mode_vector(mode)
             self._spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
             self._switches.append((phase, ev.name, t0 + t))
-            mv = new_mv
-            enabled = [e.enabled(mode) for e in evs]
+            mv, mva = new_mv, np.array(new_mv)
+            enabled = np.array([e.enabled(mode) for e in evs])
+            en = np.flatnonzero(enabled)
             armed |= (Gp[:, : hit_k + 1] > arm[:, None]).any(axis=1)
             g_prev = g_e
             g_prev[idx] = 0.0  # the event just handled must not be found again
             x = x_e
 
     def _spring(self, x, p, mv) -> float:
-        return float(self.hs.energy(x, p, mv)[2])
+        return float(self.hs.energy.np(x, p, mv)[2, 0])
 
     def _energy(self, x, p, mv) -> float:
-        return float(np.sum(self.hs.energy(x, p, mv).full()))
+        return float(np.sum(self.hs.energy.np(x, p, mv)))
 
     # -- whole steps -----------------------------------------------------------------------
     def run(self, x_section, p, steps: int = 1, record: bool = True,
-            mode: dict | None = None, progress=None) -> SimulationResult:
-        """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``."""
+            mode: dict | None = None, progress=None, margins: bool = False) -> SimulationResult:
+        """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``.
+
+        ``record``: build the trajectory DataFrame (and the steps' validity margins);
+        ``margins``: only the margins (``StepRecord.margins``), without the DataFrame.
+        """
         hs = self.hs
         model = hs.model
         p = np.asarray(p, dtype=float).ravel()
         xs = np.asarray(x_section, dtype=float).ravel()
-        x = hs.model.section_to_full(xs, p).full().ravel()
+        x = hs.section_to_full.np(xs, p).ravel()
         mode = dict(mode or model.initial_mode)
         t = 0.0
-        rec = [] if record else None
+        rec = [] if record or margins else None
         event_rows: list[dict] = []
         records: list[StepRecord] = []
         failure = None
@@ -320,11 +348,11 @@ class Simulator:
                 tr = transitions[phase]
                 mv = hs.mode_vector(mode)
                 if tr.ends_step:
-                    sr.step_length = float(hs.step_length(x_end, p))
-                x_plus, imp, chk, x_post = (v.full().ravel() for v in hs.impact[tr.name](x_end, p))
+                    sr.step_length = float(hs.step_length.np(x_end, p)[0, 0])
+                x_plus, imp, chk, x_post = (v.ravel() for v in hs.impact[tr.name].np(x_end, p))
                 sr.plan.items.append(("transition", tr.name))
-                ke = hs.energy(x_end, p, mv).full().ravel()
-                ke_post = float(hs.energy(x_post, p, mv)[0])
+                ke = hs.energy.np(x_end, p, mv).ravel()
+                ke_post = float(hs.energy.np(x_post, p, mv)[0, 0])
                 sr.impact_loss_J += ke[0] - ke_post
                 for name, v in zip(hs.check_names[tr.name], chk, strict=True):
                     margins[f"{tr.name}:{name}"] = float(v)
@@ -347,7 +375,7 @@ class Simulator:
                     sr.spring_loss_J = self._spring_loss
                     sr.energy_end_J = ke_post + ke[1] + self._spring(x_plus, p,
                                                                      hs.mode_vector(mode))
-                    sr.x_section_end = model.full_to_section(x).full().ravel()
+                    sr.x_section_end = hs.full_to_section.np(x).ravel()
                     sr.margins = margins
                     xs = sr.x_section_end
                     break
@@ -356,8 +384,7 @@ class Simulator:
             if progress is not None:
                 progress(k + 1)
         traj = self._trajectory(rec, records, p) if record else None
-        ev = pd.DataFrame(event_rows, columns=["step", "phase", "event", "t", "kind"])
-        return SimulationResult(traj, ev, records, failure, model.state_names, x, mode)
+        return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
         """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
@@ -368,11 +395,21 @@ class Simulator:
         if rec is None:
             return
         names = self.hs.output_names[phase]
-        for ph, mv, ts, X, _ in rec[n_rec:]:
+        entries = rec[n_rec:]
+        i = 0
+        while i < len(entries):
+            # one call for each run of entries in the same mode (not one per chunk)
+            ph, mv = entries[i][0], entries[i][1]
+            j = i + 1
+            while j < len(entries) and entries[j][0] == ph and entries[j][1] == mv:
+                j += 1
+            ts = np.concatenate([e[2] for e in entries[i:j]])
+            X = np.hstack([e[3] for e in entries[i:j]])
+            i = j
             out = self.hs.outputs[ph](X, p, mv).full()
             late = ts >= t0 + 0.2 * dt
-            for j, name in enumerate(names):
-                vals = out[j]
+            for j_, name in enumerate(names):
+                vals = out[j_]
                 if name.startswith("clearance_"):
                     vals = vals[late]
                 elif not name.startswith(("N_", "copmargin_")):

@@ -1,7 +1,8 @@
 """Shared fixtures: the bundled problem, its hybrid system and one recorded Table-2 step.
 
-The first use of the hybrid system compiles its CasADi functions to C (about 30 s, cached in
-``~/.cache/pdw_casadi``); every later session reuses the cached libraries.
+The first use of the hybrid system compiles its CasADi functions to C (about 25 s, and as much
+again for the Poincare sensitivities; cached in ``$PDW_CACHE`` or ``~/.cache/pdw_casadi``);
+every later session reuses the cached libraries.
 """
 
 from __future__ import annotations
