@@ -66,8 +66,7 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     acc = step1.mapaccum(f"iacc_{phase}", n_sub, [0], [0])
     X0 = ca.MX.sym("x", nx)
     S0 = ca.DM(ca.horzcat(ca.DM.eye(nx), ca.DM.zeros(nx, npar + 1)))
-    Zs, Ys, dYs = acc(ca.vertcat(X0, ca.vec(S0)), H, P, M)
-    Xs = Zs[:nx, :]
+    Zs, _, dYs = acc(ca.vertcat(X0, ca.vec(S0)), H, P, M)
     dX = ca.vertcat(*[ca.reshape(Zs[nx:, j], nx, nz) for j in range(n_sub)])
     dYv = ca.vertcat(*[ca.reshape(dYs[:, j], ny, nz) for j in range(n_sub)])
     name = f"interval_{phase}_{n_sub}"

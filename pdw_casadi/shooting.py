@@ -93,7 +93,8 @@ class ShootingNLP:
     """
 
     def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
-                 sample_stride: int = 1, hs: HybridSystem | None = None):
+                 sample_stride: int = 1, hs: HybridSystem | None = None,
+                 transversality: float = 0.5):
         self.problem = problem
         self.sim = Simulator(problem, hs)
         self.hs = hs = self.sim.hs
@@ -101,6 +102,7 @@ class ShootingNLP:
         self.h = self.sim.h
         self.h_max = H_MAX_FACTOR * self.h
         self.stride = sample_stride
+        self.transversality = transversality
         self.p0 = np.asarray(p0, float).ravel()
         x0 = np.asarray(x0, float).ravel()
         run = self.sim.run(x0, self.p0, steps=1, record=False)
@@ -116,7 +118,7 @@ class ShootingNLP:
 
     # -- variables -------------------------------------------------------------------------
     def _build(self):
-        hs, nx = self.hs, self.hs.nx
+        nx = self.hs.nx
         ns = len(self.model.state_names)
         self.xs = ca.MX.sym("xs", ns)
         self.pf = ca.MX.sym("p_free", len(self.free))
@@ -253,9 +255,10 @@ class ShootingNLP:
             # starting gait's; a grazing crossing makes the step map hypersensitive (the
             # saltation term divides by this rate) and the event order fragile
             mv = ca.DM(s.mode)
-            rate = self._gdot(s.phase)(X[:, -1], p, mv)[s.event]
-            add(s.cross_sign * rate, 0.5 * abs(s.cross_rate0), ca.inf,
-                f"transversality[{k}]:{evs[s.event].name}")
+            if self.transversality > 0:
+                rate = self._gdot(s.phase)(X[:, -1], p, mv)[s.event]
+                add(s.cross_sign * rate, self.transversality * abs(s.cross_rate0), ca.inf,
+                    f"transversality[{k}]:{evs[s.event].name}")
             cols = list(range(self.stride - 1, Y.shape[1], self.stride))
             if cols[-1] != Y.shape[1] - 1:
                 cols.append(Y.shape[1] - 1)
@@ -286,8 +289,9 @@ class ShootingNLP:
                     # demand ramps up from zero (the toe leaves the ground at toe-off)
                     tc = ca.horzcat(self.t_start[k], ts[cols])
                     frac = (tc - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
-                    need = v.get("min_clearance", 0.0) * ca.fmax(0, ca.fmin(1, 2 * frac - 1))
-                    add(row - need, MARGIN_SLACK, ca.inf, f"margin[{k}]:{name}")
+                    ramp = ca.fmax(0, ca.fmin(1, 2 * frac - 1))
+                    need = (v.get("min_clearance", 0.0) + MARGIN_SLACK) * ramp
+                    add(row - need, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
                 x_plus, _, chk, _ = hs.impact[s.transition](xe, p)

@@ -34,7 +34,7 @@ def _identify(problem, tmp_path, free, factors):
         p_true[names.index(name)] *= f
     synthetic_curves(problem, p_true, tmp_path / "synthetic.csv")
     human = load_gait_curves(tmp_path / "synthetic.csv")
-    res = fit_gait(problem, human, FitOptions(free=free, stability_rounds=0, verbose=False,
+    res = fit_gait(problem, human, FitOptions(free=free, stabilize=False, verbose=False,
                                               tol=1e-10, max_iter=200), log=lambda m: None)
     cand = res.candidates[0]
     return p_true, cand

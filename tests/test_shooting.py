@@ -59,7 +59,8 @@ def test_feasibility_solve_finds_the_compass_gait_fixed_point():
     w0[: ref.state.size] += 1e-3
     lo, hi = nlp.bounds()
     solver = ca.nlpsol("feas", "ipopt", {"x": nlp.w, "f": 0, "g": nlp.g},
-                       {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-12})
+                       {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": 1e-12,
+                        "ipopt.hessian_approximation": "limited-memory"})
     sol = solver(x0=w0, lbx=lo, ubx=hi, lbg=nlp.lbg, ubg=nlp.ubg)
     assert solver.stats()["success"]
     xs = nlp.unpack(sol["x"].full())["xs"]
