@@ -8,12 +8,13 @@ would:
 - **re-simulation**: the NLP's section state and parameters are run through the
   event-driven simulator for 20 steps; the largest deviation from the NLP's state is reported
   (it must stay below 1e-6: the NLP's map is the simulator's map);
-- **stability** from the exact AD Jacobian of the Poincare map. The NLP has no eigenvalues,
-  and this walker's spectral radius is too steep and curved in the compliance for a
-  linearised constraint (see :func:`restore_stability`), so an unstable NLP optimum is
-  followed by a local search for the best-fitting stable compliance next to it, and the NLP
-  is solved again at that compliance (its fixed point is what is reported and verified).
-  A multistart keeps the best stable, valid solution;
+- **stability** is a constraint of the NLP: rho(dP/dx (xs, p)) <= max_radius - 0.01, with
+  rho from the exact-AD Jacobian of the simulator's Poincare map at the NLP's section state
+  and parameters, and its gradient by central differences of that exact Jacobian. (A
+  linearised constraint in an outer loop does not work for this walker: rho is steep and
+  curved in the compliance, d rho / d ln k_ankle ~ 97 at Table 3, and its linear
+  prediction is wrong in sign already for 0.2 % steps.) The reported eigenvalues are those
+  of the simulator's fixed point next to the NLP's (within the re-simulation deviation);
 - **validity**: the simulator's margins (contact forces, centre of pressure, clearance,
   impulses) at the fixed point.
 """
@@ -50,8 +51,7 @@ class FitOptions:
     free_slope: bool = False
     slope_bounds: tuple[float, float] = (0.05, 0.25)  # rad
     max_radius: float = 0.95
-    stabilize: bool = True  # restore stability when the NLP optimum is unstable
-    restore_evaluations: int = 400  # fixed-point solves of the stability restoration
+    stability_constraint: bool = True  # rho <= max_radius - 0.01 as an NLP constraint
     multistart: int = 1
     seed: int = 0
     spread: float = 0.3  # relative log-normal spread of the multistart compliance
@@ -149,6 +149,82 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
                      float("nan"))
 
 
+class _SpectralRadius(ca.Callback):
+    """rho(dP/dx) at (xs, free parameters) from the exact-AD Poincare map of the simulator,
+    as a CasADi function for the NLP. Its gradient is by central differences of the exact
+    Jacobian (second derivatives of the hybrid map are not available); a trial point where
+    the simulated step fails returns ``FAIL_RHO`` so that IPOPT's line search backs off."""
+
+    FAIL_RHO = 10.0
+
+    def __init__(self, name, pmap, nlp: ShootingNLP, fd_step: float = 1e-6):
+        ca.Callback.__init__(self)
+        self.pmap, self.nlp, self.h = pmap, nlp, fd_step
+        self.ns, self.nf = nlp.xs.shape[0], len(nlp.free)
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return 1
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_in(self, i):
+        return ca.Sparsity.dense(self.ns + self.nf, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(1, 1)
+
+    def rho(self, z) -> float:
+        z = np.asarray(z, float).ravel()
+        p = self.nlp.p0.copy()
+        for j, name in enumerate(self.nlp.free):
+            p[self.nlp.param_names.index(name)] = z[self.ns + j] * self.nlp.p_scale[j]
+        try:
+            J = self.pmap.evaluate(z[: self.ns], p).dx
+        except Exception:  # noqa: BLE001 (a failed step is a value, not an error, here)
+            return self.FAIL_RHO
+        return float(np.abs(np.linalg.eigvals(J)).max())
+
+    def eval(self, arg):
+        return [self.rho(arg[0])]
+
+    def has_jacobian(self):
+        return True
+
+    def get_jacobian(self, name, inames, onames, opts):
+        self._jac = _SpectralRadiusGradient(name, self)
+        return self._jac
+
+
+class _SpectralRadiusGradient(ca.Callback):
+    def __init__(self, name, f: _SpectralRadius):
+        ca.Callback.__init__(self)
+        self.f = f
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return 2
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_in(self, i):
+        return self.f.get_sparsity_in(0) if i == 0 else ca.Sparsity.dense(1, 1)
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(1, self.f.ns + self.f.nf)
+
+    def eval(self, arg):
+        z = np.asarray(arg[0], float).ravel()
+        g = np.zeros(z.size)
+        for i in range(z.size):
+            e = np.zeros(z.size)
+            e[i] = self.f.h * max(1.0, abs(z[i]))
+            g[i] = (self.f.rho(z + e) - self.f.rho(z - e)) / (2 * e[i])
+        return [ca.DM(g).T]
+
+
 class _Solver:
     """IPOPT on one ShootingNLP. The curve errors at the RK4 samples are extra unknowns E
     (E - err(w) = 0), so the objective sum w E^2 / SS_tot has a trivial gradient and one
@@ -176,6 +252,12 @@ class _Solver:
         self.g_base = ca.vertcat(nlp.g, *err_rows)
         self.opts = opts
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
+        self.rho_row = None
+        if opts.stability_constraint and nlp.free:
+            from .poincare import PoincareMap
+
+            self.rho_fun = _SpectralRadius("rho", PoincareMap(nlp.problem), nlp)
+            self.rho_row = self.rho_fun(ca.vertcat(nlp.xs, nlp.pf))
 
     def solve(self, w0):
         """Solve from ``w0`` (unknowns of the ShootingNLP); a dict with the solution."""
@@ -183,6 +265,9 @@ class _Solver:
         g = self.g_base
         lbg = np.r_[nlp.lbg, np.zeros(self.e.shape[0])]
         ubg = np.r_[nlp.ubg, np.zeros(self.e.shape[0])]
+        if self.rho_row is not None:
+            g = ca.vertcat(g, self.rho_row)
+            lbg, ubg = np.r_[lbg, 0.0], np.r_[ubg, opts.max_radius - 0.01]
         ipopt = {"hessian_approximation": "limited-memory", "max_iter": opts.max_iter,
                  "tol": opts.tol, "acceptable_tol": 1e-4, "acceptable_iter": 10,
                  "print_level": 5 if opts.verbose else 0, "print_frequency_iter": 10,
@@ -250,74 +335,7 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
     cand = _check(problem, nlp, out, human, sim, s, 0, solves, notes, log)
     if cand is None:
         return None, solves, notes
-    if cand.fixed_point.spectral_radius <= opts.max_radius or not opts.stabilize:
-        return cand, solves, notes
-    # stability restoration around the NLP optimum, then the NLP again at that compliance
-    p_stable = restore_stability(problem, cand, human, opts, free, log=log)
-    if p_stable is None:
-        notes.append(f"start {s}: no stable gait found near the NLP optimum "
-                     f"(spectral radius {cand.fixed_point.spectral_radius:.4f})")
-        return cand, solves, notes
-    fixed = ShootingNLP(problem, p_stable[1], p_stable[0], free=(),
-                        sample_stride=opts.sample_stride, hs=sim.hs)
-    out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
-    final = _check(problem, fixed, out, human, sim, s, 1, solves, notes, log)
-    return (final if final is not None else cand), solves, notes
-
-
-def restore_stability(problem, cand: Candidate, human, opts: FitOptions, free, log=print):
-    """A stable gait near an unstable fitted one: (parameters, fixed point) or None.
-
-    The spectral radius of this walker's map is steep and curved in the compliance (measured
-    at Table 3: d rho / d ln k_ankle ~ 97, and the linear prediction is already wrong in sign
-    for 0.2 % steps), so a linearised constraint inside the NLP does not hold. Instead a
-    Nelder-Mead search over relative changes of the free parameters (start simplex 0.3 %)
-    minimises (1 - R^2 knee) + (1 - R^2 hip target) + 10 max(0, rho - (max_radius - 0.02))
-    with exact fixed points and exact-AD eigenvalues at every trial; it stops at the first
-    simplex whose best point is stable with the margin and no longer improving.
-    """
-    from scipy.optimize import minimize
-
-    target = opts.max_radius - 0.02
-    names = problem.parameter_names
-    idx = [names.index(n) for n in free]
-    p_fit = cand.parameters.copy()
-    sim = Simulator(problem)
-    state = {"x": cand.state.copy(), "best": None, "n": 0}
-    t = ("knee", opts.hip_target)
-
-    def merit(u):
-        p = p_fit.copy()
-        p[idx] = p_fit[idx] * (1 + np.asarray(u))
-        lo_hi = [problem.compliance_bounds.get(names[i], (-np.inf, np.inf)) for i in idx]
-        if any(not lo <= p[i] <= hi for i, (lo, hi) in zip(idx, lo_hi, strict=True)):
-            return 1e3
-        state["n"] += 1
-        r = find_fixed_point(problem, state["x"], p, max_iter=15, fallback=False)
-        if not r.converged or not r.valid:
-            return 1e3
-        curves = _curves_of(problem, sim, r.state, p)
-        if curves is None:
-            return 1e3
-        sc = fit_scores(curves, human)
-        state["x"] = r.state
-        f = sum(1 - sc[f"r2_{x}"] for x in t) + 10 * max(0.0, r.spectral_radius - target)
-        if r.spectral_radius <= target and (state["best"] is None or f < state["best"][0]):
-            state["best"] = (f, p.copy(), r.state.copy())
-        return f
-
-    n = len(idx)
-    simplex = np.vstack([np.zeros(n), 3e-3 * np.eye(n)])
-    log(f"restoring stability: spectral radius {cand.fixed_point.spectral_radius:.4f} > "
-        f"{opts.max_radius}; Nelder-Mead on {n} parameters")
-    minimize(merit, np.zeros(n), method="Nelder-Mead",
-             options={"initial_simplex": simplex, "maxfev": opts.restore_evaluations,
-                      "xatol": 1e-6, "fatol": 1e-6})
-    if state["best"] is None:
-        return None
-    _, p, x = state["best"]
-    log(f"restoration: {state['n']} fixed points; stable compliance found")
-    return p, x
+    return cand, solves, notes
 
 
 def _better(a: Candidate, b: Candidate | None, opts: FitOptions) -> bool:
