@@ -407,6 +407,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         import pandas as pd
         from tqdm import tqdm
 
+        from .continuation import parameter_index
         from .plots import plot_sweep
         from .sweep import SweepSettings, sweep
 
@@ -431,6 +432,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             if "III" not in hybrid_system(problem).phase_names:
                 raise ProblemError(f"--gait needs a walker with a heel-strike phase III; "
                                    f"{problem.name} ({problem.family}) has none")
+        parameter_index(problem, args.param)  # an unknown name fails before any work
         out = _out_dir(args.out)
         csv_path = out / "sweep.csv"
         csv_path.unlink(missing_ok=True)

@@ -1,0 +1,81 @@
+"""``pdw-sweep``: the files it writes, --from-fit, --workers, and user errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pdw_casadi.cli import COMMANDS, sweep_main
+from pdw_casadi.fixed_point import find_fixed_point
+from pdw_casadi.problem import load_problem
+
+DEG = np.pi / 180
+ARGS = ["--problem", "compass_gait", "--param", "slope", "--from", str(3 * DEG),
+        "--to", str(6 * DEG), "--num", "7"]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep")
+    assert sweep_main([*ARGS, "--out", str(out)]) == 0
+    return out
+
+
+def test_sweep_writes_table_events_and_figure(run_dir, capsys):
+    table = pd.read_csv(run_dir / "sweep.csv")
+    assert len(table) == 7 and table["converged"].all()
+    assert {"slope", "q_st", "q_sw", "dq_st", "dq_sw", "step_time_s", "step_length_m",
+            "speed_m_s", "spectral_radius", "eig0_re", "eig0_im", "stable", "valid",
+            "margin:swing:min_N_foot1"} <= set(table)
+    np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7) * DEG, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(table["speed_m_s"], table["step_length_m"] / table["step_time_s"])
+    ev = json.loads((run_dir / "events.json").read_text())
+    kinds = [e["kind"] for e in ev["events"]]
+    assert kinds[0] == "period_doubling"
+    pd_slope = ev["events"][0]["value"]
+    # the stable rows are exactly those below the period doubling
+    np.testing.assert_array_equal(table["stable"], table["slope"] < pd_slope)
+    rng = ev["stable_valid_ranges"]
+    assert rng[0]["from"] == pytest.approx(3 * DEG) and rng[0]["to"] == pd_slope
+    assert (run_dir / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "sweep" in COMMANDS
+
+
+def test_workers_give_the_same_csv(run_dir, tmp_path):
+    assert sweep_main([*ARGS, "--workers", "2", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "sweep.csv").read_text() == (run_dir / "sweep.csv").read_text()
+
+
+def test_from_fit_starts_at_the_fit(tmp_path):
+    pb = load_problem("compass_gait")
+    slope = 3.5 * DEG
+    fp = find_fixed_point(pb, p=np.array([slope]))
+    assert fp.converged
+    fit = tmp_path / "summary.json"
+    fit.write_text(json.dumps({"compliance": {}, "slope": slope,
+                               "fixed_point": fp.state_dict()}))
+    out = tmp_path / "out"
+    assert sweep_main(["--problem", "compass_gait", "--from", str(3.5 * DEG), "--to",
+                       str(4 * DEG), "--num", "3", "--from-fit", str(fit), "--out",
+                       str(out)]) == 0
+    table = pd.read_csv(out / "sweep.csv")
+    first = table.iloc[0]
+    assert first["slope"] == slope and first["iterations"] == 0  # already a fixed point
+    np.testing.assert_allclose(first[pb.state_names].to_numpy(float), fp.state, atol=1e-12)
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--param", "k_knee"], "no parameter 'k_knee'"),
+    (["--num", "1"], "--num must be >= 2"),
+    (["--from-fit", "missing.json"], "missing.json"),
+    (["--gait", "female_fast.csv"], "needs a walker with a heel-strike phase III"),
+])
+def test_user_errors_exit_2(tmp_path, capsys, extra, message):
+    with pytest.raises(SystemExit) as exc:
+        sweep_main([*ARGS, *extra, "--out", str(tmp_path)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err
