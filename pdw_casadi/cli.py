@@ -192,8 +192,10 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     coordinates, velocities and outputs), ``events.csv`` (guards, mode switches, failure),
     ``summary.json`` (phases, step time/length, speed, Poincare states, residual
     ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
-    ``angles.png`` and ``stick.png``. A walker that falls is a result, not an error: the
-    outputs are written, ``failure`` says why, a warning goes to stderr, exit code 0.
+    ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
+    walker over all steps (:mod:`pdw_casadi.animation`). A walker that falls is a result, not
+    an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
+    code 0.
     """
     parser = argparse.ArgumentParser(
         prog="pdw-simulate", parents=[common_parser()],
@@ -202,6 +204,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                         help="number of steps (default: %(default)s)")
     parser.add_argument("--snapshots", type=_positive_int, default=8, metavar="K",
                         help="stick-figure snapshots of the first step (default: %(default)s)")
+    parser.add_argument("--animate", type=Path, metavar="FILE.gif",
+                        help="also write an animated GIF of the walker walking down the slope "
+                             "over all simulated steps")
+    parser.add_argument("--fps", type=_positive_int, default=25, metavar="F",
+                        help="frames per simulated second of the animation (default: "
+                             "%(default)s)")
     args = parser.parse_args(argv)
     with _errors():
         problem = load_cli_problem(args)
@@ -223,6 +231,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         _write_json(out / "summary.json", summary)
         plot_angles(traj, out / "angles.png", title=f"{problem.name}: joint angles")
         plot_stick(sim.hs, traj, p, out / "stick.png", n=args.snapshots)
+        if args.animate is not None and not traj.empty:
+            from .animation import animate_walk
+
+            animate_walk(sim.hs, result, p, args.animate, fps=args.fps,
+                         title=f"{problem.name}: {result.completed_steps} steps down a slope "
+                               f"of {problem.slope:.4f} rad")
     if result.failure is not None:
         f = result.failure
         print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
