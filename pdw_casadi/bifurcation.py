@@ -95,7 +95,9 @@ class Event:
     """A located bifurcation or boundary. ``value`` in the unit of ``parameter``;
     ``bracket``: the interval known to contain it; ``crossing``: ``"outward"`` when an
     eigenvalue leaves the unit circle as the parameter increases, ``"inward"`` when one
-    enters; ``refined``: located to the requested tolerance (False: only bracketed)."""
+    enters; ``refined``: narrowed to the requested tolerance (Brent, bisection or the step
+    halving of the continuation); False when a trial inside the bracket had no fixed point, so
+    only the bracket between two points is known."""
 
     kind: str
     parameter: str
@@ -276,5 +278,6 @@ def branch_end(end: BranchEnd, problem, locator: Locator, xtol: float, bisect_to
         reason = (f"Newton does not converge beyond {end.last.value:.8g} (eigenvalue nearest "
                   f"+1: {near:+.6f}); the branch could not be followed further")
         kind = "branch_end"
+    # the step halving of the continuation has already bisected the bracket to min_step
     return locator.event(kind, 0.5 * sum(bracket), bracket, reason, end.last.result,
-                         refined=False, branch=end.last.branch)
+                         refined=True, branch=end.last.branch)

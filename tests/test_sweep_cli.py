@@ -79,3 +79,23 @@ def test_user_errors_exit_2(tmp_path, capsys, extra, message):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and message in err
+
+
+def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch):
+    """sweep.csv is appended row by row: stopping the sweep (Ctrl-C) loses nothing found."""
+    import pdw_casadi.sweep as sweep_module
+
+    real, calls = sweep_module.point_row, []
+
+    def interrupted_after_three(*args, **kwargs):
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(sweep_module, "point_row", interrupted_after_three)
+    with pytest.raises(KeyboardInterrupt):
+        sweep_main([*ARGS, "--out", str(tmp_path)])
+    table = pd.read_csv(tmp_path / "sweep.csv")
+    assert len(table) == 3 and table["converged"].all()
+    np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
