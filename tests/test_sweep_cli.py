@@ -99,3 +99,24 @@ def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch):
     table = pd.read_csv(tmp_path / "sweep.csv")
     assert len(table) == 3 and table["converged"].all()
     np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
+
+
+def test_gait_file_adds_r2_matching_pdw_fit(tmp_path):
+    """With --gait, every row carries R^2 of its gait cycle; at the paper's slope it is the
+    R^2 that pdw-fit reports for the same compliance (a separate code path)."""
+    from pdw_casadi.cli import fit_main
+
+    sw, fit = tmp_path / "sw", tmp_path / "fit"
+    assert sweep_main(["--problem", "humanlike_6link", "--from", "0.14839", "--to", "0.1484",
+                       "--num", "2", "--gait", "female_fast.csv", "--out", str(sw)]) == 0
+    assert fit_main(["--problem", "humanlike_6link", "--gait", "female_fast.csv", "--out",
+                     str(fit)]) == 0
+    table = pd.read_csv(sw / "sweep.csv").sort_values("slope")
+    assert len(table) == 2 and table["converged"].all()
+    scores = json.loads((fit / "summary.json").read_text())
+    at_paper = table[table["slope"] == 0.1484].iloc[0]
+    for key in ("r2_knee", "r2_hip", "r2_thigh"):
+        assert at_paper[key] == pytest.approx(scores[key], abs=1e-8)
+    # a neighbouring slope walks a slightly different gait: close but not the same R^2
+    other = table.iloc[0]
+    assert 0 < abs(other["r2_knee"] - at_paper["r2_knee"]) < 0.01
