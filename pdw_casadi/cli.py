@@ -463,6 +463,8 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         grid = np.linspace(args.start, args.stop, args.num)
         print(f"sweeping {args.param} of {problem.name} from {args.start} to {args.stop} "
               f"({args.num} values, {args.mode})...", file=sys.stderr)
+        # seam for a later --refit --gait FILE: pass sweep(..., corrector=...) a corrector
+        # that refits the compliance at every point (see pdw_casadi.continuation.Corrector)
         with tqdm(total=args.num, unit="pt", desc="pdw-sweep", file=sys.stderr) as bar:
             res = sweep(problem, grid, parameter=args.param, mode=args.mode,
                         workers=args.workers, scheduler=args.scheduler, gait=args.gait,
