@@ -8,8 +8,10 @@ backend, and each task is a pure function of its item, so a serial, pooled and d
 run give identical results. Sweeps (grid points, continuation legs) and the compliance-fit
 multistart use it.
 
-``fn`` and the items must be picklable: a module-level function, not a lambda. Workers
-compile nothing: the CasADi libraries are loaded from the shared ``$PDW_CACHE``.
+``fn`` and the items must be picklable: a module-level function, not a lambda. Pool workers
+are forked and inherit the walker's CasADi functions already loaded; Dask workers load the
+compiled libraries from ``$PDW_CACHE`` (point it at a shared directory on a cluster, or
+each worker compiles once).
 """
 
 from __future__ import annotations
