@@ -14,7 +14,7 @@ from pdw_casadi.bifurcation import (
     phi_neimark_sacker,
     phi_period_doubling,
 )
-from pdw_casadi.continuation import NewtonCorrector, parameter_index, tangent
+from pdw_casadi.continuation import parameter_index, tangent, with_value
 from pdw_casadi.fixed_point import find_fixed_point, stability, validity_slacks
 from pdw_casadi.poincare import PoincareMap
 from pdw_casadi.problem import ProblemError, load_problem
@@ -153,20 +153,30 @@ def test_sweep_over_a_compliance_value_and_bad_parameter():
     assert parameter_index(pb, "slope") == len(pb.compliance)
 
 
-@pytest.mark.slow
-def test_humanlike_compliance_continuation_matches_solve():
-    """A short continuation over k_knee (N m/rad) on the 6-link walker: every point agrees
-    with a fresh Newton solve at its stiffness."""
+def test_humanlike_compliance_continuation_to_its_boundary():
+    """Continuation over the knee stiffness k_knee (N m/rad) of the 6-link walker, from
+    Table 3's 116.2 down towards 116.0: the branch ends where the orbit fails (the centre of
+    pressure reaches the toe in phase I), bracketed to spacing / 4096, and every point
+    agrees with a plain Newton solve at its stiffness started from the Table-2 fixed point."""
     pb = load_problem("humanlike_6link")
-    res = sweep(pb, np.linspace(116.2, 117.2, 3), parameter="k_knee")
-    ok = res.table[res.table["converged"]]
-    assert len(ok) >= 2
-    corr = NewtonCorrector(pb, tol=1e-10, max_iter=30)
-    for _, row in ok.iterrows():
-        p = pb.parameter_vector()
-        p[parameter_index(pb, "k_knee")] = row["k_knee"]
-        fp = corr(row[pb.state_names].to_numpy(float), p)
-        np.testing.assert_allclose(row[pb.state_names].to_numpy(float), fp.state, atol=1e-8)
+    res = sweep(pb, np.linspace(116.0, 116.2, 3), parameter="k_knee")
+    table = res.table
+    assert table["k_knee"].iloc[0] == 116.2 and table["converged"].all()
+    assert np.all(np.diff(table["k_knee"]) < 0)  # one branch, downwards, stopped early
+    (bnd,) = [e for e in res.events if e.kind == "boundary"]
+    assert "cop1_at_toe" in bnd.reason
+    lo, hi = sorted(bnd.bracket)
+    assert hi - lo <= 0.1 / 4096 * (1 + 1e-9) and lo < bnd.value < hi
+    assert table["k_knee"].min() == pytest.approx(hi)
+    x0 = table[pb.state_names].iloc[0].to_numpy(float)
+    k = parameter_index(pb, "k_knee")
+    P = PoincareMap(pb)
+    for _, row in table.iloc[1:].iterrows():
+        fp = find_fixed_point(pb, x0, with_value(pb.parameter_vector(), k, row["k_knee"]),
+                              pmap=P)
+        assert fp.converged
+        np.testing.assert_allclose(row[pb.state_names].to_numpy(float), fp.state, rtol=0,
+                                   atol=1e-8)
 
 
 # -- test functions on matrices with known eigenvalues -------------------------------------
