@@ -119,12 +119,14 @@ class Problem:
         _check_values(new, self.source or Path(self.name))
         return new
 
-    def __reduce__(self):
-        # the mapping fields are read-only proxies, which pickle cannot copy; rebuild them
-        # from plain dicts so a problem can travel to a process pool or a Dask worker
-        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        plain = {k: dict(v) if isinstance(v, Mapping) else v for k, v in fields.items()}
-        return (_unpickle_problem, (plain,))
+    def __getstate__(self) -> dict:
+        # mapping proxies do not pickle; worker processes get plain dicts, re-frozen on arrival
+        return {f.name: (dict(v) if isinstance(v, Mapping) else v)
+                for f in dataclasses.fields(self) for v in (getattr(self, f.name),)}
+
+    def __setstate__(self, state: dict) -> None:
+        for k, v in state.items():
+            object.__setattr__(self, k, _frozen(v) if isinstance(v, dict) else v)
 
     def to_dict(self) -> dict:
         return {
@@ -135,11 +137,6 @@ class Problem:
             "initial_state": dict(self.initial_state), "numerics": dict(self.numerics),
             "validity": dict(self.validity),
         }
-
-
-def _unpickle_problem(fields: dict) -> Problem:
-    """Rebuild a pickled :class:`Problem` (see ``Problem.__reduce__``)."""
-    return Problem(**{k: _frozen(v) if isinstance(v, dict) else v for k, v in fields.items()})
 
 
 def _num(where: str, key: str, v) -> float:
