@@ -101,19 +101,22 @@ def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch):
     np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
 
 
-def test_gait_file_adds_r2_matching_pdw_fit(tmp_path):
-    """With --gait, every row carries R^2 of its gait cycle; at the paper's slope it is the
-    R^2 that pdw-fit reports for the same compliance (a separate code path)."""
-    from pdw_casadi.cli import fit_main
+def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
+    """With --gait, every row carries R^2 of its own gait cycle: at the paper's slope it is
+    the R^2 of the fixed point solved here directly (no sweep code involved)."""
+    from pdw_casadi.curves import fit_scores, gait_cycle
+    from pdw_casadi.gait_data import load_gait_curves
+    from pdw_casadi.simulate import Simulator
 
-    sw, fit = tmp_path / "sw", tmp_path / "fit"
+    sw = tmp_path / "sw"
     assert sweep_main(["--problem", "humanlike_6link", "--from", "0.14839", "--to", "0.1484",
                        "--num", "2", "--gait", "female_fast.csv", "--out", str(sw)]) == 0
-    assert fit_main(["--problem", "humanlike_6link", "--gait", "female_fast.csv", "--out",
-                     str(fit)]) == 0
     table = pd.read_csv(sw / "sweep.csv").sort_values("slope")
     assert len(table) == 2 and table["converged"].all()
-    scores = json.loads((fit / "summary.json").read_text())
+    pb = load_problem("humanlike_6link")
+    fp = find_fixed_point(pb)
+    one = Simulator(pb).run(fp.state, fp.parameters, steps=1, record=True)
+    scores = fit_scores(gait_cycle(one.trajectory), load_gait_curves("female_fast.csv"))
     at_paper = table[table["slope"] == 0.1484].iloc[0]
     for key in ("r2_knee", "r2_hip", "r2_thigh"):
         assert at_paper[key] == pytest.approx(scores[key], abs=1e-8)
