@@ -195,8 +195,10 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     coordinates, velocities and outputs), ``events.csv`` (guards, mode switches, failure),
     ``summary.json`` (phases, step time/length, speed, Poincare states, residual
     ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
-    ``angles.png`` and ``stick.png``. A walker that falls is a result, not an error: the
-    outputs are written, ``failure`` says why, a warning goes to stderr, exit code 0.
+    ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
+    walker over all steps (:mod:`pdw_casadi.animation`). A walker that falls is a result, not
+    an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
+    code 0.
     """
     parser = argparse.ArgumentParser(
         prog="pdw-simulate", parents=[common_parser()],
@@ -205,6 +207,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                         help="number of steps (default: %(default)s)")
     parser.add_argument("--snapshots", type=_positive_int, default=8, metavar="K",
                         help="stick-figure snapshots of the first step (default: %(default)s)")
+    parser.add_argument("--animate", type=Path, metavar="FILE.gif",
+                        help="also write an animated GIF of the walker walking down the slope "
+                             "over all simulated steps")
+    parser.add_argument("--fps", type=_positive_int, default=25, metavar="F",
+                        help="frames per simulated second of the animation (default: "
+                             "%(default)s)")
     args = parser.parse_args(argv)
     with _errors():
         problem = load_cli_problem(args)
@@ -226,6 +234,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         _write_json(out / "summary.json", summary)
         plot_angles(traj, out / "angles.png", title=f"{problem.name}: joint angles")
         plot_stick(sim.hs, traj, p, out / "stick.png", n=args.snapshots)
+        if args.animate is not None and not traj.empty:
+            from .animation import animate_walk
+
+            animate_walk(sim.hs, result, p, args.animate, fps=args.fps,
+                         title=f"{problem.name}: {result.completed_steps} steps down a slope "
+                               f"of {problem.slope:.4f} rad")
     if result.failure is not None:
         f = result.failure
         print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
@@ -333,11 +347,156 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     return 0 if summary["stable"] and summary["valid"] else 1
 
 
+def load_fit_start(problem: Problem, path: Path) -> Problem:
+    """``problem`` with compliance, slope and section state taken from a fit summary.
+
+    The summary (JSON) holds ``compliance`` (problem compliance names -> values), ``slope``
+    (rad) and ``fixed_point`` (section-state names -> values, rad and rad/s).
+    """
+    try:
+        raw = json.loads(Path(path).read_text())
+    except ValueError as exc:
+        raise ProblemError(f"{path}: not valid JSON: {exc}") from None
+    missing = [k for k in ("compliance", "slope", "fixed_point") if k not in (raw or {})]
+    if not isinstance(raw, dict) or missing:
+        raise ProblemError(f"{path}: a fit summary needs the keys compliance, slope and "
+                           f"fixed_point; missing: {', '.join(missing)}")
+    if not isinstance(raw["compliance"], dict) or not isinstance(raw["fixed_point"], dict):
+        raise ProblemError(f"{path}: 'compliance' and 'fixed_point' must be tables")
+    if isinstance(raw["slope"], bool) or not isinstance(raw["slope"], int | float):
+        raise ProblemError(f"{path}: 'slope' must be a number (rad), got {raw['slope']!r}")
+    try:
+        return problem.replace(compliance=raw["compliance"], slope=float(raw["slope"])) \
+            .with_state(raw["fixed_point"])
+    except ProblemError as exc:
+        raise ProblemError(f"{path}: {exc}") from None
+
+
+def sweep_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-sweep``: follow a periodic gait over a parameter; bifurcations and boundaries.
+
+    Starts from the fixed point of the problem (its initial state; or ``--from-fit``), covers
+    ``--num`` values from ``--from`` to ``--to`` of ``--param`` (the slope in rad, or a
+    compliance name in its unit) and writes to ``--out``: ``sweep.csv`` (one row per point,
+    appended as each is found: parameter, section state, step time, step length, speed,
+    spectral radius, eigenvalues, margins, stable, valid, R^2 with ``--gait``),
+    ``events.json`` (located bifurcations and gait-pattern boundaries, stable valid ranges)
+    and ``sweep.png`` (step length, speed and spectral radius against the parameter).
+    ``--workers K`` spreads independent work (grid points, the two directions from an
+    interior start) over K processes; ``--scheduler ADDRESS`` over a Dask cluster.
+    """
+    parser = argparse.ArgumentParser(
+        prog="pdw-sweep", parents=[common_parser()],
+        description="Parameter sweep of a periodic gait by continuation, with bifurcations.")
+    parser.add_argument("--param", default="slope", metavar="NAME",
+                        help="parameter to sweep: slope (rad) or a compliance name "
+                             "(default: %(default)s)")
+    parser.add_argument("--from", dest="start", type=float, required=True, metavar="A",
+                        help="first value of the grid (unit of the parameter)")
+    parser.add_argument("--to", dest="stop", type=float, required=True, metavar="B",
+                        help="last value of the grid")
+    parser.add_argument("--num", type=_positive_int, default=25, metavar="N",
+                        help="grid values from A to B, >= 2 (default: %(default)s)")
+    parser.add_argument("--mode", choices=("continuation", "grid"), default="continuation",
+                        help="continuation from the start, or every grid value solved on its "
+                             "own from the start (default: %(default)s)")
+    parser.add_argument("--predictor", choices=("tangent", "secant"), default="tangent",
+                        help="continuation predictor (default: %(default)s)")
+    parser.add_argument("--from-fit", type=Path, metavar="FILE",
+                        help="start from a fit summary.json (compliance, slope, fixed_point)")
+    parser.add_argument("--gait", metavar="FILE",
+                        help="gait-curve CSV: add R^2 of knee and hip to every row")
+    parser.add_argument("--workers", type=_positive_int, default=1, metavar="K",
+                        help="processes for independent work (default: %(default)s)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="Dask scheduler address (e.g. tcp://host:8786); overrides "
+                             "--workers")
+    parser.add_argument("--tol", type=float, default=1e-10,
+                        help="|P(x) - x| of every fixed point (default: %(default)s)")
+    args = parser.parse_args(argv)
+    with _errors():
+        import numpy as np
+        import pandas as pd
+        from tqdm import tqdm
+
+        from .continuation import parameter_index
+        from .plots import plot_sweep
+        from .sweep import SweepSettings, sweep
+
+        if args.num < 2:
+            raise ProblemError(f"--num must be >= 2, got {args.num}")
+        if args.start == args.stop:
+            raise ProblemError(f"--from and --to must differ, got {args.start} twice")
+        if args.scheduler is not None:
+            try:
+                import distributed  # noqa: F401
+            except ImportError:
+                raise ProblemError("--scheduler needs dask.distributed: "
+                                   "pip install 'pdw-casadi[dask]'") from None
+        problem = load_cli_problem(args)
+        if args.from_fit is not None:
+            problem = load_fit_start(problem, args.from_fit)
+        if args.gait is not None:
+            from .gait_data import load_gait_curves
+            from .system import hybrid_system
+
+            load_gait_curves(args.gait)  # a bad file is a user error now, not mid-sweep
+            if "III" not in hybrid_system(problem).phase_names:
+                raise ProblemError(f"--gait needs a walker with a heel-strike phase III; "
+                                   f"{problem.name} ({problem.family}) has none")
+        parameter_index(problem, args.param)  # an unknown name fails before any work
+        out = _out_dir(args.out)
+        csv_path = out / "sweep.csv"
+        csv_path.unlink(missing_ok=True)
+        columns: list[str] = []
+
+        def append(row: dict) -> None:
+            # the first row (the start, a converged gait) fixes the columns; later rows that
+            # lack some (a failed point has no margins) get empty cells
+            if not columns:
+                columns.extend(row)
+            frame = pd.DataFrame([row]).reindex(columns=columns)
+            frame.to_csv(csv_path, mode="a", header=not csv_path.exists(), index=False)
+
+        grid = np.linspace(args.start, args.stop, args.num)
+        print(f"sweeping {args.param} of {problem.name} from {args.start} to {args.stop} "
+              f"({args.num} values, {args.mode})...", file=sys.stderr)
+        # seam for a later --refit --gait FILE: pass sweep(..., corrector=...) a corrector
+        # that refits the compliance at every point (see pdw_casadi.continuation.Corrector)
+        with tqdm(total=args.num, unit="pt", desc="pdw-sweep", file=sys.stderr) as bar:
+            res = sweep(problem, grid, parameter=args.param, mode=args.mode,
+                        workers=args.workers, scheduler=args.scheduler, gait=args.gait,
+                        settings=SweepSettings(tol=args.tol, predictor=args.predictor),
+                        on_row=append, progress=bar.update)
+        summary = {**res.to_dict(), "problem": problem.name,
+                   "compliance": dict(problem.compliance), "slope": problem.slope,
+                   "units": {"slope": "rad", "time": "s", "length": "m", "speed": "m/s"}}
+        _write_json(out / "events.json", summary)
+        plot_sweep(res.table, res.events, args.param, out / "sweep.png",
+                   title=f"{problem.name}: sweep over {args.param}")
+    table = res.table
+    print(f"{len(table)} points ({int(table['converged'].sum())} converged, "
+          f"{int((table['stable'] & table['valid']).sum())} stable and valid)")
+    for e in res.events:
+        print(f"  {e.kind:16s} {args.param} = {e.value:.8g}  (bracket {min(e.bracket):.8g} .. "
+              f"{max(e.bracket):.8g}): {e.reason}")
+    ranges = res.stable_ranges()
+    if ranges:
+        for r in ranges:
+            print(f"stable valid gait: {args.param} in [{r['from']:.8g}, {r['to']:.8g}] "
+                  f"(ends: {r['from_event'] or 'last point'}, {r['to_event'] or 'last point'})")
+    else:
+        print(f"no stable valid gait found over {args.param} = {args.start} .. {args.stop}")
+    print(f"wrote {out}")
+    return 0
+
+
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)
 COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "simulate": simulate_main,
     "fixed-point": fixed_point_main,
     "fit": fit_main,
+    "sweep": sweep_main,
 }
 
 

@@ -96,19 +96,40 @@ class FixedPointResult:
         return pd.DataFrame({"name": self.state_names, "value": self.state})
 
 
+#: margin-name prefix -> (validity key of its required minimum, unit); impulses have no
+#: configurable minimum: they must be positive
+_REQUIREMENTS = (("min_N_", "min_normal_force", "N"), ("min_copmargin", "min_cop_margin", "m"),
+                 ("min_clearance_toe", "min_clearance", "m"), ("impulse", None, "N s"))
+
+
+def validity_slacks(margins: dict, problem) -> dict[str, float]:
+    """Each checked validity margin minus its required minimum (N, m or N s, by margin).
+
+    The gait pattern holds while every slack is >= 0 (impulses: > 0); a slack reaching zero
+    along a parameter sweep is a gait-pattern boundary. Margins that carry no requirement
+    (e.g. the energy lost at knee-spring disengagement) are left out.
+    """
+    v = problem.validity
+    out = {}
+    for key, val in margins.items():
+        name = key.split(":", 1)[-1]
+        for prefix, vkey, _unit in _REQUIREMENTS:
+            if name.startswith(prefix):
+                out[key] = float(val) - (v.get(vkey, 0.0) if vkey else 0.0)
+                break
+    return out
+
+
 def _margins_valid(margins: dict, problem) -> str | None:
     """Name of the first validity margin below its required minimum, or None."""
     v = problem.validity
-    for key, val in margins.items():
+    for key, slack in validity_slacks(margins, problem).items():
         name = key.split(":", 1)[-1]
-        if name.startswith("min_N_") and val < v.get("min_normal_force", 0.0):
-            return f"{key} = {val:.3g} N < {v.get('min_normal_force', 0.0)} N"
-        if name.startswith("min_copmargin") and val < v.get("min_cop_margin", 0.0):
-            return f"{key} = {val:.3g} m < {v.get('min_cop_margin', 0.0)} m"
-        if name.startswith("min_clearance_toe") and val < v.get("min_clearance", 0.0):
-            return f"{key} = {val:.3g} m < {v.get('min_clearance', 0.0)} m"
-        if name.startswith("impulse") and val <= 0:
-            return f"{key} = {val:.3g} <= 0"
+        vkey, unit = next((k, u) for prefix, k, u in _REQUIREMENTS if name.startswith(prefix))
+        if vkey is None and slack <= 0:
+            return f"{key} = {margins[key]:.3g} <= 0"
+        if vkey is not None and slack < 0:
+            return f"{key} = {margins[key]:.3g} {unit} < {v.get(vkey, 0.0)} {unit}"
     return None
 
 

@@ -23,7 +23,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.colors import LinearSegmentedColormap  # noqa: E402
 
-__all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_stick", "snapshot_rows"]
+__all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_fit", "plot_limit_cycle",
+           "plot_stick", "plot_sweep", "snapshot_rows"]
 
 PHASE_COLORS = {"I": "#d8e6f3", "II": "#f4f4f4", "III": "#f6e3cf"}
 LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
@@ -312,6 +313,62 @@ def plot_fit(human, models: dict, path, scores: dict | None = None) -> Path:
     axes[1].set_title("(b) hip (model thigh from the slope normal)")
     fig.tight_layout()
     path = Path(path)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+#: short labels of sweep events on the bifurcation figure
+EVENT_LABELS = {"fold": "LP", "period_doubling": "PD", "neimark_sacker": "NS",
+                "boundary": "BND", "branch_end": "END"}
+
+
+def plot_sweep(table: pd.DataFrame, events, parameter: str, path,
+               title: str | None = None) -> Path:
+    """Bifurcation figure of a sweep: step length (m), speed (m/s) and spectral radius of
+    dP/dx against the parameter. Stable stretches solid, unstable dashed (a stretch is
+    stable when both its end points are), points breaking the gait pattern as grey crosses,
+    located events as dotted vertical lines labelled LP (fold), PD (period doubling), NS
+    (Neimark-Sacker), BND (gait-pattern boundary), END (branch lost)."""
+    path = Path(path)
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    ok = table[table["converged"].astype(bool)]
+    quantities = (("step_length_m", "step length [m]"), ("speed_m_s", "speed [m/s]"),
+                  ("spectral_radius", "spectral radius of dP/dx [-]"))
+    for branch, part in ok.groupby("branch", sort=True):
+        # the start (branch 0) joins both directions: draw each branch from the start
+        start = ok[ok["branch"] == 0]
+        part = pd.concat([start, part]) if branch != 0 else part
+        part = part.sort_values(parameter, kind="stable")
+        x = part[parameter].to_numpy()
+        good = (part["stable"].astype(bool) & part["valid"].astype(bool)).to_numpy()
+        for ax, (col, _) in zip(axes, quantities, strict=True):
+            y = part[col].to_numpy()
+            for k in range(len(x) - 1):
+                stable = good[k] and good[k + 1]
+                ax.plot(x[k:k + 2], y[k:k + 2], color="tab:blue" if stable else "tab:red",
+                        ls="-" if stable else "--", lw=1.6)
+            ax.plot(x[good], y[good], "o", color="tab:blue", ms=3)
+            ax.plot(x[~good], y[~good], "o", color="tab:red", ms=3, mfc="white")
+    bad = ok[~ok["valid"].astype(bool)]
+    for ax, (col, label) in zip(axes, quantities, strict=True):
+        if not bad.empty:
+            ax.plot(bad[parameter], bad[col], "x", color="0.4", ms=6, label="gait pattern broken")
+        ax.set_ylabel(label)
+        ax.grid(True, lw=0.4, alpha=0.6)
+    axes[2].axhline(1.0, color="k", lw=0.8)
+    for e in events:
+        for ax in axes:
+            ax.axvline(e.value, color="0.3", ls=":", lw=1.0)
+        axes[0].annotate(EVENT_LABELS.get(e.kind, e.kind), xy=(e.value, 1.0),
+                         xycoords=("data", "axes fraction"), xytext=(0, 2),
+                         textcoords="offset points", ha="center", va="bottom", fontsize=8)
+    handles = [plt.Line2D([], [], color="tab:blue", lw=1.6, label="stable, valid"),
+               plt.Line2D([], [], color="tab:red", ls="--", lw=1.6, label="unstable or invalid")]
+    axes[0].legend(handles=handles, fontsize=8, loc="best")
+    axes[2].set_xlabel(parameter)
+    fig.suptitle(title or f"Sweep over {parameter}", fontsize=10)
+    fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path

@@ -1,0 +1,70 @@
+"""Independent tasks on a process pool or a Dask cluster, results in input order.
+
+:func:`map_tasks` is the one place that decides where work runs: in this process
+(``workers <= 1``), on a local process pool (``workers > 1``), or on a Dask cluster
+(``scheduler`` = the address of a ``dask.distributed`` scheduler, e.g.
+``tcp://10.0.0.5:8786``). The results come back in the order of ``items`` whatever the
+backend, and each task is a pure function of its item, so a serial, pooled and distributed
+run give identical results. Sweeps (grid points, continuation legs) and the compliance-fit
+multistart use it.
+
+``fn`` and the items must be picklable: a module-level function, not a lambda. Pool workers
+are forked and inherit the walker's CasADi functions already loaded; Dask workers load the
+compiled libraries from ``$PDW_CACHE`` (point it at a shared directory on a cluster, or
+each worker compiles once).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import sys
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from typing import TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+def _pool_context():
+    # fork (Linux): a worker inherits the walker's CasADi functions already loaded in the
+    # parent instead of loading them again (several seconds per process for the 6-link
+    # walker); other platforms cannot fork safely and use their default start method.
+    if sys.platform.startswith("linux"):
+        return multiprocessing.get_context("fork")
+    return multiprocessing.get_context()
+
+
+def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
+              scheduler: str | None = None) -> Iterator[R]:
+    """Yield ``fn(item)`` for every item, in input order, as soon as each is available.
+
+    Args:
+        fn: a picklable function of one item.
+        items: the task inputs.
+        workers: processes of the local pool; 1 (or fewer) runs in this process.
+        scheduler: address of a Dask scheduler; when given, the tasks run on that cluster
+            and ``workers`` is ignored (the cluster has its own).
+
+    An exception raised by a task is re-raised here, when its result is reached.
+    """
+    items = list(items)
+    if scheduler is not None:
+        yield from _dask_map(fn, items, scheduler)
+    elif workers > 1 and len(items) > 1:
+        with ProcessPoolExecutor(max_workers=min(workers, len(items)),
+                                 mp_context=_pool_context()) as pool:
+            yield from pool.map(fn, items)
+    else:
+        for item in items:
+            yield fn(item)
+
+
+def _dask_map(fn, items, scheduler: str):
+    from dask.distributed import Client
+
+    with Client(scheduler, set_as_default=False) as client:
+        # pure=False: identical items are still separate tasks (no result sharing surprises)
+        futures = client.map(fn, items, pure=False)
+        for fut in futures:
+            yield fut.result()
