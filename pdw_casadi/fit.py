@@ -269,7 +269,7 @@ class _Solver:
             g = ca.vertcat(g, self.rho_row)
             lbg, ubg = np.r_[lbg, 0.0], np.r_[ubg, opts.max_radius - 0.01]
         ipopt = {"hessian_approximation": "limited-memory", "max_iter": opts.max_iter,
-                 "tol": opts.tol, "acceptable_tol": 1e-4, "acceptable_iter": 10,
+                 "tol": opts.tol, "acceptable_tol": 100 * opts.tol, "acceptable_iter": 10,
                  "print_level": 5 if opts.verbose else 0, "print_frequency_iter": 10,
                  "sb": "yes", "mu_strategy": "adaptive"}
         solver = ca.nlpsol("pdw_fit", "ipopt", {"x": self.x, "f": self.f, "g": g},

@@ -3,13 +3,10 @@
 MODEL.md's gait cycle runs from the swing leg's heel strike over two steps. Within one
 step of duration T with heel strike at t_hs, leg 1's angles at time t fall at cycle
 percentage 100 (T - t_hs + t) / (2T) and leg 2's at 100 (t - t_hs) / (2T) after heel strike
-and 100 (2T - t_hs + t) / (2T) before it. The objective evaluates the model's angles at
-every RK4 sample of the NLP (0.5 ms apart), the human mean curve there (a cubic B-spline
-through the 101 data points), and sums the squared errors with weight
-dpct = 100 h / (2T), so that sum_samples dpct err^2 is the integral the 101-point sum of R^2
-approximates; divided by the human curve's 101-point sum of squares about its mean it is
-1 - R^2 up to quadrature error (< 1e-3; the R^2 we report is always the 101-point one of
-the re-simulated gait, :mod:`pdw_casadi.curves`).
+and 100 (2T - t_hs + t) / (2T) before it. The objective is the 101-point sum of
+squared errors of R^2 itself (see :func:`curve_errors`), divided by the human curve's sum of
+squares about its mean: 1 - R^2 per curve. The R^2 we report is always the one of the
+re-simulated gait (:mod:`pdw_casadi.curves`).
 """
 
 from __future__ import annotations
@@ -31,29 +28,43 @@ def human_spline(human, column: str) -> tuple[ca.Function, float]:
 
 
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
-    """Per target: (list of (err, weight) per segment and leg, SS_tot). ``err`` is the model
-    minus human angle (deg) at the segment's RK4 samples (1 x N M, MX); ``weight`` the cycle
-    percentage per sample, 100 h / (2T)."""
+    """Per target: (list of (err, weight), SS_tot) with ``err`` the model minus human angle
+    (deg) at the 101 points of the gait cycle (MX) and weight 1, so that
+    sum err^2 / SS_tot is 1 - R^2 of MODEL.md's 101-point definition.
+
+    Each cycle point j is represented by the RK4 sample (of the leg whose part of the cycle
+    holds it) nearest to it in the starting gait, 0.5 ms ~ 0.04 % of the cycle apart; the
+    human curve is evaluated at that sample's own cycle percentage (a cubic B-spline through
+    the data, exact at the 101 points), so the objective stays consistent as the durations
+    change.
+    """
     T = nlp.step_time
     k_hs = next(k for k, s in enumerate(nlp.specs) if s.phase == nlp.model.heel_strike_phase)
     t_hs = nlp.t_start[k_hs]
+    pct = {1: [], 2: []}
+    for k, _s in enumerate(nlp.specs):
+        ts = nlp.sample_t[k]
+        pct[1].append(100 * (T - t_hs + ts) / (2 * T))
+        pct[2].append(100 * ((ts - t_hs) if k >= k_hs else (2 * T - t_hs + ts)) / (2 * T))
+    pct = {leg: ca.horzcat(*rows) for leg, rows in pct.items()}
+    pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
+            for leg, v in pct.items()}
+    grid = np.linspace(0.0, 100.0, 101)
+    choice = []  # (leg, sample index) per cycle point
+    for g in grid:
+        best = min((abs(pct0[leg] - g).min(), leg, int(abs(pct0[leg] - g).argmin()))
+                    for leg in (1, 2))
+        choice.append(best[1:])
     out = {}
     for target in targets:
         stem, column = TARGETS[target]
         if getattr(human, column) is None:
             raise ValueError(f"the gait file has no {column} column (needed for {target})")
         spline, ss_tot = human_spline(human, column)
-        parts = []
-        for k, _s in enumerate(nlp.specs):
-            ts = nlp.sample_t[k]
-            n = ts.shape[1]
-            w = 100 * nlp.h_k[k] / (2 * T)
-            pct1 = 100 * (T - t_hs + ts) / (2 * T)
-            pct2 = 100 * ((ts - t_hs) if k >= k_hs else (2 * T - t_hs + ts)) / (2 * T)
-            for leg, pct in ((1, pct1), (2, pct2)):
-                model = nlp.output(k, f"{stem}{leg}_deg")
-                parts.append((model - spline.map(n)(pct), w))
-        out[target] = (parts, ss_tot)
+        model = {leg: ca.horzcat(*[nlp.output(k, f"{stem}{leg}_deg")
+                                   for k in range(len(nlp.specs))]) for leg in (1, 2)}
+        errs = [model[leg][i] - spline(pct[leg][i]) for leg, i in choice]
+        out[target] = ([(ca.horzcat(*errs), 1.0)], ss_tot)
     return out
 
 

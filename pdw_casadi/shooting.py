@@ -78,7 +78,9 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB) -> 
         if ev.kind not in (GUARD, SWITCH):
             raise ValueError(f"plan segment ends on failure event {ev.name!r}")
         dur = item.n * item.h + item.tau
-        n_int = max(1, int(math.ceil(dur / (n_sub * h))))
+        # one interval of headroom: a segment's duration is bounded by n_int n_sub h_max
+        # (the RK4 step bound), and short segments (phase I lasts ~4 ms) must be free to grow
+        n_int = int(math.ceil(dur / (n_sub * h))) + 1
         specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
                                  dur))
     return specs
@@ -285,11 +287,13 @@ class ShootingNLP:
                     add(row, v.get("min_cop_margin", 0.0) + MARGIN_SLACK, ca.inf,
                         f"margin[{k}]:{name}")
                 elif name.startswith("clearance_"):
-                    # the simulator's margin counts after 20 % of the phase; before that the
-                    # demand ramps up from zero (the toe leaves the ground at toe-off)
-                    tc = ca.horzcat(self.t_start[k], ts[cols])
-                    frac = (tc - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
-                    ramp = ca.fmax(0, ca.fmin(1, 2 * frac - 1))
+                    # not at the start node: the toe leaves the ground there (height 0 by
+                    # the previous phase's contact), and a pinned row only degrades the KKT
+                    row = Y[j, cols]
+                    # the simulator's margin counts after 20 % of the phase; the demand ramps
+                    # up over 18-20 % so that it stays continuous in the durations
+                    frac = (ts[cols] - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
+                    ramp = ca.fmax(0, ca.fmin(1, 10 * frac - 9))
                     need = (v.get("min_clearance", 0.0) + MARGIN_SLACK) * ramp
                     add(row - need, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
