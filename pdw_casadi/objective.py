@@ -32,11 +32,11 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     (deg) at the 101 points of the gait cycle (MX) and weight 1, so that
     sum err^2 / SS_tot is 1 - R^2 of MODEL.md's 101-point definition.
 
-    Each cycle point j is represented by the RK4 sample (of the leg whose part of the cycle
-    holds it) nearest to it in the starting gait, 0.5 ms ~ 0.04 % of the cycle apart; the
-    human curve is evaluated at that sample's own cycle percentage (a cubic B-spline through
-    the data, exact at the 101 points), so the objective stays consistent as the durations
-    change.
+    The model's value at cycle point j is the linear interpolation between the two RK4
+    samples (0.5 ms apart, of the leg whose part of the cycle holds j) that bracket it in the
+    starting gait, at the point's own cycle percentage, which moves with the durations: the
+    same interpolation as :func:`pdw_casadi.curves.gait_cycle`, so the objective is the R^2
+    we report as long as the bracket holds, and stays smooth when it drifts.
     """
     T = nlp.step_time
     k_hs = next(k for k, s in enumerate(nlp.specs) if s.phase == nlp.model.heel_strike_phase)
@@ -49,21 +49,34 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     pct = {leg: ca.horzcat(*rows) for leg, rows in pct.items()}
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}
-    grid = np.linspace(0.0, 100.0, 101)
-    choice = []  # (leg, sample index) per cycle point
+    h = human.resample(101)
+    grid = np.asarray(h.cycle_pct, float)
+    # leg 2's samples run 50..100 % then 0..1.6 %: bracket in cycle order, not time order
+    order = {leg: np.argsort(pct0[leg], kind="stable") for leg in (1, 2)}
+    choice = []  # (leg, sample a, sample b) bracketing each cycle point
     for g in grid:
-        best = min((abs(pct0[leg] - g).min(), leg, int(abs(pct0[leg] - g).argmin()))
-                    for leg in (1, 2))
-        choice.append(best[1:])
+        options = []
+        for leg in (1, 2):
+            o = order[leg]
+            p = pct0[leg][o]
+            j = int(np.clip(np.searchsorted(p, g) - 1, 0, p.size - 2))
+            outside = max(p[j] - g, g - p[j + 1], 0.0)
+            options.append((outside, leg, int(o[j]), int(o[j + 1])))
+        choice.append(min(options)[1:])
     out = {}
     for target in targets:
         stem, column = TARGETS[target]
         if getattr(human, column) is None:
             raise ValueError(f"the gait file has no {column} column (needed for {target})")
-        spline, ss_tot = human_spline(human, column)
+        vals = np.asarray(getattr(h, column), float)
+        ss_tot = float(np.sum((vals - vals.mean()) ** 2))
         model = {leg: ca.horzcat(*[nlp.output(k, f"{stem}{leg}_deg")
                                    for k in range(len(nlp.specs))]) for leg in (1, 2)}
-        errs = [model[leg][i] - spline(pct[leg][i]) for leg, i in choice]
+        errs = []
+        for (leg, a, b), g, v in zip(choice, grid, vals, strict=True):
+            pa, pb = pct[leg][a], pct[leg][b]
+            ya, yb = model[leg][a], model[leg][b]
+            errs.append(ya + (yb - ya) * (g - pa) / (pb - pa) - v)
         out[target] = ([(ca.horzcat(*errs), 1.0)], ss_tot)
     return out
 

@@ -61,6 +61,7 @@ class SegmentSpec:
     duration0: float
     signs: dict[int, float] = field(default_factory=dict)  # event index -> required sign
     gaps: dict[int, float] = field(default_factory=dict)  # event index -> required |g| margin
+    start: dict[int, int] = field(default_factory=dict)  # event index -> first sample checked
     cross_sign: float = 0.0  # direction of the ending event's crossing in the starting gait
     cross_rate0: float = 0.0  # its rate dg/dt there
 
@@ -221,6 +222,10 @@ class ShootingNLP:
                 if not gi.size or not (np.all(gi > 0) or np.all(gi < 0)):
                     continue
                 s.signs[i] = float(np.sign(gi[0]))
+                if ev.arm_above > 0:
+                    # like the simulator: an armed event counts once g has left the surface
+                    # (a toe that just lifted off starts at height 0)
+                    s.start[i] = int(np.argmax(np.abs(gi) > 10 * ev.arm_above))
                 a = np.abs(gi)
                 gap = min(1e-3 * a.max(), 0.5 * a.min())
                 if i != s.event and a[0] > 10 * gap:
@@ -267,6 +272,7 @@ class ShootingNLP:
             inner = cols[:-1]
             for i, sign in s.signs.items():
                 at = inner if i == s.event else cols
+                at = [c for c in at if c >= s.start.get(i, 0)]
                 if at:
                     add(sign * Y[e0 + i, at], s.gaps.get(i, 0.0), ca.inf,
                         f"sign[{k}]:{evs[i].name}")
