@@ -406,6 +406,9 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
                         help="start from a fit summary.json (compliance, slope, fixed_point)")
     parser.add_argument("--gait", metavar="FILE",
                         help="gait-curve CSV: add R^2 of knee and hip to every row")
+    parser.add_argument("--refit", action="store_true",
+                        help="refit the compliance to --gait at every point (a full pdw-fit "
+                             "per point, warm-started from the neighbour; slow)")
     parser.add_argument("--workers", type=_positive_int, default=1, metavar="K",
                         help="processes for independent work (default: %(default)s)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -461,11 +464,21 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         grid = np.linspace(args.start, args.stop, args.num)
         print(f"sweeping {args.param} of {problem.name} from {args.start} to {args.stop} "
               f"({args.num} values, {args.mode})...", file=sys.stderr)
-        # seam for a later --refit --gait FILE: pass sweep(..., corrector=...) a corrector
-        # that refits the compliance at every point (see pdw_casadi.continuation.Corrector)
+        corrector = None
+        if args.refit:
+            if args.gait is None:
+                raise ProblemError("--refit needs --gait FILE (the curves to refit to)")
+            if args.param != "slope":
+                raise ProblemError("--refit sweeps the slope (the compliance is refitted)")
+            from .fit import FitOptions, RefitCorrector
+            from .gait_data import load_gait_curves
+
+            corrector = RefitCorrector(problem, load_gait_curves(args.gait),
+                                       FitOptions(verbose=False))
         with tqdm(total=args.num, unit="pt", desc="pdw-sweep", file=sys.stderr) as bar:
             res = sweep(problem, grid, parameter=args.param, mode=args.mode,
-                        workers=args.workers, scheduler=args.scheduler, gait=args.gait,
+                        corrector=corrector, workers=args.workers,
+                        scheduler=args.scheduler, gait=args.gait,
                         settings=SweepSettings(tol=args.tol, predictor=args.predictor),
                         on_row=append, progress=bar.update)
         summary = {**res.to_dict(), "problem": problem.name,

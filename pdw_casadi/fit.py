@@ -418,3 +418,26 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
                default=None)
     return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
                      targets, notes)
+
+
+class RefitCorrector:
+    """A continuation corrector that refits the compliance at every point of a sweep.
+
+    Called with (x_guess, p) by :func:`pdw_casadi.continuation.continue_branch`: the
+    compliance of ``p`` (the neighbour's fit) is the NLP's start, the swept value of ``p``
+    stays fixed, and the best stable valid fit's fixed point is returned (its ``parameters``
+    hold the refitted compliance, so the next point starts from them). If the fit finds no
+    stable valid gait, the plain Newton fixed point at ``p`` is returned. Each call is a full
+    fit (about a minute or two for the 6-link walker).
+    """
+
+    def __init__(self, problem, human, options: FitOptions | None = None):
+        self.problem, self.human = problem, human
+        self.options = options or FitOptions(verbose=False)
+
+    def __call__(self, x_guess, p) -> FixedPointResult:
+        pb = self.problem.with_parameters(p).with_state(np.asarray(x_guess, float))
+        res = fit_gait(pb, self.human, self.options, log=lambda m: None)
+        if res.best is not None:
+            return res.best.fixed_point
+        return find_fixed_point(pb, x_guess, p, max_iter=10, fallback=False)

@@ -123,3 +123,13 @@ def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
     # a neighbouring slope walks a slightly different gait: close but not the same R^2
     other = table.iloc[0]
     assert 0 < abs(other["r2_knee"] - at_paper["r2_knee"]) < 0.01
+
+
+def test_refit_needs_a_gait_file(tmp_path, capsys):
+    from pdw_casadi.cli import sweep_main
+
+    with pytest.raises(SystemExit) as info:
+        sweep_main(["--problem", "humanlike_6link", "--param", "slope", "--from", "0.1484",
+                    "--to", "0.1485", "--num", "2", "--refit", "--out", str(tmp_path / "o")])
+    assert info.value.code == 2
+    assert "--refit needs --gait" in capsys.readouterr().err
