@@ -321,7 +321,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                              "or the thigh from the vertical (default: %(default)s)")
     parser.add_argument("--max-radius", type=float, default=0.95, metavar="R",
                         help="largest accepted spectral radius (default: %(default)s)")
-    parser.add_argument("--max-iter", type=_positive_int, default=400,
+    parser.add_argument("--max-iter", type=_positive_int, default=150,
                         help="IPOPT iterations per solve (default: %(default)s)")
     parser.add_argument("--workers", type=_positive_int, default=1,
                         help="processes for the multistart (default: 1)")

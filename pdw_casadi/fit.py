@@ -57,7 +57,7 @@ class FitOptions:
     multistart: int = 1
     seed: int = 0
     spread: float = 0.3  # relative log-normal spread of the multistart compliance
-    max_iter: int = 400
+    max_iter: int = 150
     tol: float = 1e-6
     sample_stride: int = 2
     verbose: bool = True
@@ -341,9 +341,23 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         f"{nlp.g.shape[0]} constraints; solving with IPOPT")
     out = solver.solve(nlp.w0)
     cand = _check(problem, nlp, out, human, sim, s, 0, solves, notes, log)
-    if cand is None:
-        return None, solves, notes
-    return cand, solves, notes
+    converged = out["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    if cand is None or converged:
+        return cand, solves, notes
+    # IPOPT stopped on its iteration limit: keep the last compliance and solve the NLP
+    # again at it (states and durations only), so that what is reported is an exact NLP
+    # gait of that compliance, re-simulated and checked like any other
+    log(f"start {s}: IPOPT stopped ({out['status']}); re-solving the gait at its last "
+        "compliance")
+    try:
+        fixed = ShootingNLP(problem, cand.state, cand.parameters, free=(),
+                            sample_stride=opts.sample_stride, hs=sim.hs)
+    except ValueError as exc:
+        notes.append(f"start {s}: {exc}")
+        return cand, solves, notes
+    out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
+    final = _check(problem, fixed, out, human, sim, s, 1, solves, notes, log)
+    return (final if final is not None else cand), solves, notes
 
 
 def _better(a: Candidate, b: Candidate | None, opts: FitOptions) -> bool:
