@@ -233,6 +233,48 @@ class _SpectralRadiusGradient(ca.Callback):
         return [ca.DM(g).T]
 
 
+class _BestFeasible(ca.Callback):
+    """IPOPT iteration callback keeping the feasible iterate (constraint violation below
+    ``tol``) with the lowest objective, for solves that stop on the iteration limit."""
+
+    def __init__(self, name, nx, ng, lbg, ubg, tol: float = 1e-7):
+        ca.Callback.__init__(self)
+        self.nx, self.ng, self.lbg, self.ubg, self.tol = nx, ng, lbg, ubg, tol
+        self.best = None
+        self.construct(name, {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        if n == "f":
+            return ca.Sparsity.dense(1)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        d = dict(zip(ca.nlpsol_out(), arg, strict=False))
+        g = np.asarray(d["g"]).ravel()
+        viol = max(float(np.max(self.lbg - g, initial=0)), float(np.max(g - self.ubg, initial=0)))
+        f = float(d["f"])
+        if viol < self.tol and (self.best is None or f < self.best[0]):
+            self.best = (f, np.asarray(d["x"]).ravel().copy())
+        return [0]
+
+
 class _Solver:
     """IPOPT on one ShootingNLP. The curve errors at the RK4 samples are extra unknowns E
     (E - err(w) = 0), so the objective sum w E^2 / SS_tot has a trivial gradient and one
@@ -280,8 +322,9 @@ class _Solver:
                  "tol": opts.tol, "acceptable_tol": 100 * opts.tol, "acceptable_iter": 10,
                  "print_level": 5 if opts.verbose else 0, "print_frequency_iter": 10,
                  "sb": "yes", "mu_strategy": "adaptive"}
+        keeper = _BestFeasible("pdw_fit_iterates", self.x.shape[0], g.shape[0], lbg, ubg)
         solver = ca.nlpsol("pdw_fit", "ipopt", {"x": self.x, "f": self.f, "g": g},
-                           {"ipopt": ipopt, "print_time": False})
+                           {"ipopt": ipopt, "print_time": False, "iteration_callback": keeper})
         e0 = self.err(w0).full().ravel()
         lo, hi = self.lo, self.hi
         w0 = np.clip(w0, lo, hi)
@@ -291,7 +334,12 @@ class _Solver:
         sol = solver(**args)
         st = solver.stats()
         x = sol["x"].full().ravel()
-        out = {"w": x[: nlp.w.shape[0]], "objective": float(sol["f"]),
+        f_sol = float(sol["f"])
+        converged = st["return_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+        if not converged and keeper.best is not None:
+            # stopped on the iteration limit: the best feasible iterate seen is the answer
+            f_sol, x = keeper.best
+        out = {"w": x[: nlp.w.shape[0]], "objective": f_sol,
                "lam_x": sol["lam_x"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
                "status": st["return_status"], "iterations": int(st["iter_count"]),
                "wall_time_s": time.perf_counter() - t0,
