@@ -62,6 +62,7 @@ class FitOptions:
     sample_stride: int = 2
     verbose: bool = True
     free: tuple[str, ...] | None = None  # compliance names to fit (default: all)
+    ipopt: dict = field(default_factory=dict)  # extra IPOPT options (override the defaults)
 
 
 @dataclass
@@ -321,7 +322,7 @@ class _Solver:
         ipopt = {"hessian_approximation": "limited-memory", "max_iter": opts.max_iter,
                  "tol": opts.tol, "acceptable_tol": 100 * opts.tol, "acceptable_iter": 10,
                  "print_level": 5 if opts.verbose else 0, "print_frequency_iter": 10,
-                 "sb": "yes", "mu_strategy": "adaptive"}
+                 "sb": "yes", "mu_strategy": "adaptive", **opts.ipopt}
         keeper = _BestFeasible("pdw_fit_iterates", self.x.shape[0], g.shape[0], lbg, ubg)
         solver = ca.nlpsol("pdw_fit", "ipopt", {"x": self.x, "f": self.f, "g": g},
                            {"ipopt": ipopt, "print_time": False, "iteration_callback": keeper})
