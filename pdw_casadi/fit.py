@@ -32,7 +32,7 @@ import pandas as pd
 
 from .curves import fit_scores, gait_cycle
 from .fixed_point import FixedPointResult, find_fixed_point
-from .objective import curve_errors, curve_objective
+from .objective import curve_errors
 from .shooting import ShootingNLP
 from .simulate import Simulator
 
@@ -285,8 +285,6 @@ class _Solver:
     def __init__(self, nlp: ShootingNLP, human, targets, opts: FitOptions):
         self.nlp = nlp
         errs = curve_errors(nlp, human, targets)
-        _, terms = curve_objective(nlp, human, targets)
-        self.terms = ca.Function("terms", [nlp.w], list(terms.values()))
         err_rows, obj = [], 0
         self.E = []
         for _target, (parts, ss_tot) in errs.items():
@@ -407,20 +405,6 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
     out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
     final = _check(problem, fixed, out, human, sim, s, 1, solves, notes, log)
     return (final if final is not None else cand), solves, notes
-
-
-def _better(a: Candidate, b: Candidate | None, opts: FitOptions) -> bool:
-    """Stable beats unstable; then lower spectral radius while unstable, else higher R^2."""
-    if b is None:
-        return True
-    ra, rb = a.fixed_point.spectral_radius, b.fixed_point.spectral_radius
-    sa, sb = ra <= opts.max_radius, rb <= opts.max_radius
-    if sa != sb:
-        return sa
-    if not sa:
-        return ra < rb
-    t = ("knee", opts.hip_target)
-    return np.mean([a.scores[f"r2_{x}"] for x in t]) > np.mean([b.scores[f"r2_{x}"] for x in t])
 
 
 def _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log) -> Candidate | None:

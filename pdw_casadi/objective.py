@@ -18,15 +18,6 @@ import numpy as np
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
 
 
-def human_spline(human, column: str) -> tuple[ca.Function, float]:
-    """B-spline of a human curve over cycle percentage, and its 101-point SS about the mean."""
-    h = human.resample(101)
-    vals = np.asarray(getattr(h, column), float)
-    spline = ca.interpolant(f"human_{column}", "bspline", [np.asarray(h.cycle_pct, float)],
-                            vals)
-    return spline, float(np.sum((vals - vals.mean()) ** 2))
-
-
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     """Per target: (list of (err, weight), SS_tot) with ``err`` the model minus human angle
     (deg) at the 101 points of the gait cycle (MX) and weight 1, so that
@@ -82,10 +73,8 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
 
 
 def curve_objective(nlp, human, targets=("knee", "hip")):
-    """Sum over ``targets`` of (model - human)^2 integrated over the cycle / SS_tot (MX).
-
-    Returns (objective, terms) with one 1 - R^2 estimate per target in ``terms``.
-    """
+    """Sum over ``targets`` of 1 - R^2 (101-point, :func:`curve_errors`) as an MX expression
+    of the NLP's unknowns. Returns (objective, terms) with one 1 - R^2 per target."""
     terms = {}
     for target, (parts, ss_tot) in curve_errors(nlp, human, targets).items():
         terms[target] = sum(w * ca.sumsqr(err) for err, w in parts) / ss_tot
