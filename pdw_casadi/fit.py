@@ -30,6 +30,7 @@ import casadi as ca
 import numpy as np
 import pandas as pd
 
+from .callback import NumericFunction
 from .curves import fit_scores, gait_cycle
 from .fixed_point import FixedPointResult, find_fixed_point
 from .objective import curve_errors
@@ -152,32 +153,18 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
                      float("nan"))
 
 
-class _SpectralRadius(ca.Callback):
+class _RadiusBound:
     """A smooth upper bound of rho(dP/dx), (sum |lambda|^32)^(1/32), at (xs, free
-    parameters) from the exact-AD Poincare map of the simulator,
-    as a CasADi function for the NLP. Its gradient is by central differences of the exact
-    Jacobian (second derivatives of the hybrid map are not available); a trial point where
-    the simulated step fails returns ``FAIL_RHO`` so that IPOPT's line search backs off."""
+    parameters) from the exact-AD Poincare map of the simulator, as a CasADi function for
+    the NLP (:meth:`function`). Its gradient is by central differences of the exact Jacobian
+    (second derivatives of the hybrid map are not available); a trial point where the
+    simulated step fails returns ``FAIL_RHO`` so that IPOPT's line search backs off."""
 
     FAIL_RHO = 10.0
 
-    def __init__(self, name, pmap, nlp: ShootingNLP, fd_step: float = 1e-6):
-        ca.Callback.__init__(self)
+    def __init__(self, pmap, nlp: ShootingNLP, fd_step: float = 1e-6):
         self.pmap, self.nlp, self.h = pmap, nlp, fd_step
         self.ns, self.nf = nlp.xs.shape[0], len(nlp.free)
-        self.construct(name, {})
-
-    def get_n_in(self):
-        return 1
-
-    def get_n_out(self):
-        return 1
-
-    def get_sparsity_in(self, i):
-        return ca.Sparsity.dense(self.ns + self.nf, 1)
-
-    def get_sparsity_out(self, i):
-        return ca.Sparsity.dense(1, 1)
 
     def rho(self, z) -> float:
         z = np.asarray(z, float).ravel()
@@ -195,43 +182,25 @@ class _SpectralRadius(ca.Callback):
         top = m.max()
         return float(top * np.sum((m / top) ** RADIUS_NORM) ** (1 / RADIUS_NORM)) if top else 0.0
 
-    def eval(self, arg):
-        return [self.rho(arg[0])]
-
-    def has_jacobian(self):
-        return True
-
-    def get_jacobian(self, name, inames, onames, opts):
-        self._jac = _SpectralRadiusGradient(name, self)
-        return self._jac
-
-
-class _SpectralRadiusGradient(ca.Callback):
-    def __init__(self, name, f: _SpectralRadius):
-        ca.Callback.__init__(self)
-        self.f = f
-        self.construct(name, {})
-
-    def get_n_in(self):
-        return 2
-
-    def get_n_out(self):
-        return 1
-
-    def get_sparsity_in(self, i):
-        return self.f.get_sparsity_in(0) if i == 0 else ca.Sparsity.dense(1, 1)
-
-    def get_sparsity_out(self, i):
-        return ca.Sparsity.dense(1, self.f.ns + self.f.nf)
-
-    def eval(self, arg):
-        z = np.asarray(arg[0], float).ravel()
+    def gradient(self, z) -> np.ndarray:
+        z = np.asarray(z, float).ravel()
         g = np.zeros(z.size)
         for i in range(z.size):
             e = np.zeros(z.size)
-            e[i] = self.f.h * max(1.0, abs(z[i]))
-            g[i] = (self.f.rho(z + e) - self.f.rho(z - e)) / (2 * e[i])
-        return [ca.DM(g).T]
+            e[i] = self.h * max(1.0, abs(z[i]))
+            g[i] = (self.rho(z + e) - self.rho(z - e)) / (2 * e[i])
+        return g
+
+    def function(self, name: str = "rho") -> NumericFunction:
+        n = self.ns + self.nf
+        dense = ca.Sparsity.dense
+
+        def jacobian(jname):
+            return NumericFunction(jname, [dense(n, 1), dense(1, 1)], [dense(1, n)],
+                                   lambda a: [ca.DM(self.gradient(a[0])).T])
+
+        return NumericFunction(name, [dense(n, 1)], [dense(1, 1)],
+                               lambda a: [self.rho(a[0])], jacobian)
 
 
 class _BestFeasible(ca.Callback):
@@ -305,7 +274,7 @@ class _Solver:
         if opts.stability_constraint and nlp.free:
             from .poincare import PoincareMap
 
-            self.rho_fun = _SpectralRadius("rho", PoincareMap(nlp.problem), nlp)
+            self.rho_fun = _RadiusBound(PoincareMap(nlp.problem), nlp).function()
             self.rho_row = self.rho_fun(ca.vertcat(nlp.xs, nlp.pf))
 
     def solve(self, w0):

@@ -3,9 +3,9 @@
 The multiple-shooting NLP evaluates hundreds of intervals and their Jacobians per IPOPT
 iteration. In CasADi's virtual machine that costs seconds; compiled it costs milliseconds.
 CasADi cannot differentiate a compiled library by itself, so the interval is a
-:class:`casadi.Callback` whose Jacobian is a second compiled function (both built once per
-walker, phase and M, cached on disk by :mod:`pdw_casadi.compile`). Inside an MX graph
-``interval.map(N)`` then differentiates through the compiled Jacobian.
+:class:`~pdw_casadi.callback.NumericFunction` whose Jacobian is a second compiled function
+(both built once per walker, phase and M, cached on disk by :mod:`pdw_casadi.compile`).
+Inside an MX graph ``interval.map(N)`` then differentiates through the compiled Jacobian.
 
 Outputs of ``interval(x, p, m, h)``: the states after each of the M steps (nx x M) and, at
 the same instants, the phase's named outputs followed by its event functions (ny x M).
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import casadi as ca
 
+from .callback import NumericFunction
 from .compile import compiled
 from .hybrid import HybridSystem
 
@@ -83,76 +84,16 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     return fun, jac
 
 
-class _Jacobian(ca.Callback):
-    def __init__(self, name, fun):
-        ca.Callback.__init__(self)
-        self.fun = fun
-        self.construct(name, {})
-
-    def get_n_in(self):
-        return self.fun.n_in()
-
-    def get_n_out(self):
-        return self.fun.n_out()
-
-    def get_sparsity_in(self, i):
-        return self.fun.sparsity_in(i)
-
-    def get_sparsity_out(self, i):
-        return self.fun.sparsity_out(i)
-
-    def get_name_in(self, i):
-        return self.fun.name_in(i)
-
-    def get_name_out(self, i):
-        return self.fun.name_out(i)
-
-    def eval(self, arg):
-        return self.fun.call(arg)
+def _compiled(hs: HybridSystem, phase: str, n_sub: int) -> NumericFunction:
+    sym, jac = _symbolic(hs, phase, n_sub)
+    fast, jac_fast = compiled([sym, jac], ("-O1",))
+    return NumericFunction.wrap(sym.name(), sym, fast,
+                                jacobian=lambda name: NumericFunction.wrap(name, jac_fast))
 
 
-class CompiledInterval(ca.Callback):
-    """The interval function of one phase and M, evaluated and differentiated compiled."""
-
-    def __init__(self, hs: HybridSystem, phase: str, n_sub: int):
-        ca.Callback.__init__(self)
-        sym, jac = _symbolic(hs, phase, n_sub)
-        self.sym = sym
-        self.fast, self.jac_fast = compiled([sym, jac], ("-O1",))
-        self.construct(sym.name(), {})
-
-    def get_n_in(self):
-        return 4
-
-    def get_n_out(self):
-        return 2
-
-    def get_sparsity_in(self, i):
-        return self.sym.sparsity_in(i)
-
-    def get_sparsity_out(self, i):
-        return self.sym.sparsity_out(i)
-
-    def get_name_in(self, i):
-        return self.sym.name_in(i)
-
-    def get_name_out(self, i):
-        return self.sym.name_out(i)
-
-    def eval(self, arg):
-        return self.fast.call(arg)
-
-    def has_jacobian(self):
-        return True
-
-    def get_jacobian(self, name, inames, onames, opts):
-        self._jac = _Jacobian(name, self.jac_fast)  # keep a reference: CasADi does not
-        return self._jac
-
-
-def compiled_interval(hs: HybridSystem, phase: str, n_sub: int) -> CompiledInterval:
+def compiled_interval(hs: HybridSystem, phase: str, n_sub: int) -> NumericFunction:
     """The (cached) compiled interval of ``phase`` with ``n_sub`` RK4 steps."""
     key = (id(hs), phase, n_sub)
     if key not in _CACHE:
-        _CACHE[key] = CompiledInterval(hs, phase, n_sub)
+        _CACHE[key] = _compiled(hs, phase, n_sub)
     return _CACHE[key]

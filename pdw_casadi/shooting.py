@@ -106,6 +106,7 @@ class ShootingNLP:
         self.h_max = H_MAX_FACTOR * self.h
         self.stride = sample_stride
         self.transversality = transversality
+        self._gdot_cache: dict[str, ca.Function] = {}
         self.p0 = np.asarray(p0, float).ravel()
         x0 = np.asarray(x0, float).ravel()
         run = self.sim.run(x0, self.p0, steps=1, record=False)
@@ -205,14 +206,13 @@ class ShootingNLP:
         event that is zero at the segment start (it just fired) only keeps its sign.
         """
         hs = self.hs
-        fun = ca.Function("events", [self.w], self.Y)
-        Ys = fun.call([self.w0])
-        for s, Y in zip(self.specs, Ys, strict=True):
+        n = len(self.specs)
+        fun = ca.Function("guess", [self.w], [*self.Y, *[X[:, -1] for X in self.X]])
+        vals = fun.call([self.w0])
+        for s, Y, xe in zip(self.specs, vals[:n], vals[n:], strict=True):
             names = self.output_names(s.phase)
             g = Y.full()[len(names) - len(hs.event_list[s.phase]):, :]
             mode = dict(zip(hs.mode_keys, s.mode, strict=True))
-            xe = self.X[self.specs.index(s)][:, -1]
-            xe = ca.Function("xe", [self.w], [xe])(self.w0)
             rate = float(self._gdot(s.phase)(xe, self.p0, s.mode)[s.event])
             s.cross_sign, s.cross_rate0 = float(np.sign(rate)), rate
             for i, ev in enumerate(hs.event_list[s.phase]):
@@ -283,7 +283,7 @@ class ShootingNLP:
             # validity margins at the samples and at the segment's start node (right after an
             # impact the contact forces jump)
             ts = self.sample_t[k]
-            y0 = self._y0(s.phase)(X[:, 0], p, mv)
+            y0 = hs.outputs[s.phase](X[:, 0], p, mv)
             for j, name in enumerate(onames[:e0]):
                 row = ca.horzcat(y0[j], Y[j, cols])
                 if name.startswith("N_"):
@@ -319,17 +319,16 @@ class ShootingNLP:
         self.g_names = names
 
     def _gdot(self, phase: str) -> ca.Function:
-        """Rates of change of the phase's event functions along the flow, dg/dt."""
-        hs = self.hs
-        x, p, m = hs.x_sym, self.model.p, self.model.m
-        g = hs.events[phase].fun(x, p, m)
-        f = hs.rhs[phase](x, p, m)
-        return ca.Function(f"gdot_{phase}", [x, p, m], [ca.mtimes(ca.jacobian(g, x), f)])
-
-    def _y0(self, phase: str) -> ca.Function:
-        hs = self.hs
-        x, p, m = hs.x_sym, self.model.p, self.model.m
-        return ca.Function(f"y0_{phase}", [x, p, m], [hs.outputs[phase].fun(x, p, m)])
+        """Rates of change of the phase's event functions along the flow, dg/dt (built once
+        per phase)."""
+        if phase not in self._gdot_cache:
+            hs = self.hs
+            x, p, m = hs.x_sym, self.model.p, self.model.m
+            g = hs.events[phase].fun(x, p, m)
+            f = hs.rhs[phase](x, p, m)
+            self._gdot_cache[phase] = ca.Function(f"gdot_{phase}", [x, p, m],
+                                                  [ca.mtimes(ca.jacobian(g, x), f)])
+        return self._gdot_cache[phase]
 
     def violations(self, w) -> list[tuple[str, float]]:
         """Constraint violations at ``w``, largest first (name, amount)."""
