@@ -323,6 +323,9 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         help="largest accepted spectral radius (default: %(default)s)")
     parser.add_argument("--max-iter", type=_positive_int, default=150,
                         help="IPOPT iterations per solve (default: %(default)s)")
+    parser.add_argument("--rounds", type=_positive_int, default=3,
+                        help="NLP solves per start, each rebuilt at the previous answer's "
+                             "gait (default: %(default)s)")
     parser.add_argument("--workers", type=_positive_int, default=1,
                         help="processes for the multistart (default: 1)")
     parser.add_argument("--quiet", action="store_true", help="no IPOPT iteration log")
@@ -338,7 +341,8 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             _fail(f"--max-radius must be in (0, 1), got {args.max_radius}")
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                           max_radius=args.max_radius, multistart=args.multistart,
-                          seed=args.seed, max_iter=args.max_iter, verbose=not args.quiet)
+                          seed=args.seed, max_iter=args.max_iter, rounds=args.rounds,
+                          verbose=not args.quiet)
         out = _out_dir(args.out)
         summary = fit_and_report(problem, human, opts, out, workers=args.workers,
                                  log=lambda m: print(m, file=sys.stderr, flush=True))

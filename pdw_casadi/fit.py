@@ -11,11 +11,16 @@ would:
 - **stability** is a constraint of the NLP: (sum_i |lambda_i|^32)^(1/32) <= max_radius -
   0.01, a smooth upper bound of the spectral radius (the plain max has kinks where
   eigenvalues trade places). The lambda_i are the eigenvalues of the exact-AD Jacobian of
-  the simulator's Poincare map at the NLP's section state and parameters; the gradient is
-  by central differences of that exact Jacobian. A linearised constraint in an outer loop
-  does not work for this walker: rho is steep and curved in the compliance (d rho / d ln
-  k_ankle ~ 97 at Table 3; a linear prediction is wrong in sign already for 0.2 % steps).
-  The reported eigenvalues are those of the simulator's fixed point next to the NLP's;
+  the simulator's Poincare map at its fixed point x*(p) for the NLP's parameters (Newton
+  from the NLP's section state), so the bound is a function of the parameters alone; its
+  gradient is by central differences of that exact Jacobian. A linearised constraint in an
+  outer loop does not work for this walker: rho is steep and curved in the compliance
+  (d rho / d ln k_ankle ~ 97 at Table 3; a linear prediction is wrong in sign already for
+  0.2 % steps);
+- **rounds**: the objective interpolates the curves between RK4 samples chosen at the
+  round's starting gait. When IPOPT stops with the NLP objective and the re-simulated
+  1 - R^2 apart (the durations moved), or stalls along the stability bound, the NLP is
+  rebuilt at the answer's exact gait and solved again (``FitOptions.rounds``);
 - **validity**: the simulator's margins (contact forces, centre of pressure, clearance,
   impulses) at the fixed point.
 """
@@ -38,6 +43,9 @@ from .shooting import ShootingNLP
 from .simulate import Simulator
 
 RESIM_STEPS = 20
+#: a round's NLP objective must match the re-simulated 1 - R^2 to this relative gap, or the
+#: NLP is rebuilt at its answer (new sample brackets) and solved again
+CONSISTENCY_TOL = 1e-3
 RADIUS_NORM = 32  # q of the smooth spectral-radius bound constrained in the NLP
 
 
@@ -59,6 +67,7 @@ class FitOptions:
     seed: int = 0
     spread: float = 0.3  # relative log-normal spread of the multistart compliance
     max_iter: int = 150
+    rounds: int = 3  # NLP solves per start, each rebuilt at the previous answer
     tol: float = 1e-6
     sample_stride: int = 2
     verbose: bool = True
@@ -154,41 +163,121 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
 
 
 class _RadiusBound:
-    """A smooth upper bound of rho(dP/dx), (sum |lambda|^32)^(1/32), at (xs, free
-    parameters) from the exact-AD Poincare map of the simulator, as a CasADi function for
-    the NLP (:meth:`function`). Its gradient is by central differences of the exact Jacobian
-    (second derivatives of the hybrid map are not available); a trial point where the
-    simulated step fails returns ``FAIL_RHO`` so that IPOPT's line search backs off."""
+    """The stability constraint's function for the NLP: a smooth upper bound of the spectral
+    radius, (sum |lambda|^32)^(1/32), of the exact-AD Poincare Jacobian at the simulator's
+    fixed point x*(p) of the NLP's current parameters (:meth:`function`).
 
-    FAIL_RHO = 10.0
+    Near feasibility it depends on the parameters only. Evaluating it at the NLP's own
+    section state would couple it to the states of infeasible iterates, and rho is so
+    steep in (x, p) near this walker's fold that IPOPT then wanders along the bound
+    (measured: rho 0.94 in the NLP, 0.98 at the simulator's fixed point of the same
+    parameters). x*(p) comes from Newton's
+    method started at the NLP's section state (so that it is the NLP's own orbit, not the
+    other branch near the fold), else at the implicit-function prediction from the last
+    fixed point; the gradient is by central differences in the parameters (second
+    derivatives of the hybrid map are not available). Where no fixed point is found, the
+    Jacobian at the NLP's section state itself stands in (see :meth:`rho`); where the
+    step fails even there, the value is NaN: IPOPT treats it as an evaluation error and
+    cuts its step back (a large finite value sends it into restoration, measured)."""
 
-    def __init__(self, pmap, nlp: ShootingNLP, fd_step: float = 1e-6):
-        self.pmap, self.nlp, self.h = pmap, nlp, fd_step
+    def __init__(self, pmap, nlp: ShootingNLP, fd_step: float = 1e-6, tol: float = 1e-10):
+        self.pmap, self.nlp, self.h, self.tol = pmap, nlp, fd_step, tol
         self.ns, self.nf = nlp.xs.shape[0], len(nlp.free)
+        self.cols = [nlp.param_names.index(name) for name in nlp.free]
+        self.last = None  # (p, x*, dP/dx, dP/dp) of the last base fixed point
+        self.mode = "fixed_point"  # how the last base point was evaluated
 
-    def rho(self, z) -> float:
-        z = np.asarray(z, float).ravel()
+    def _params(self, z) -> np.ndarray:
         p = self.nlp.p0.copy()
-        for j, name in enumerate(self.nlp.free):
-            p[self.nlp.param_names.index(name)] = z[self.ns + j] * self.nlp.p_scale[j]
-        try:
-            J = self.pmap.evaluate(z[: self.ns], p).dx
-        except Exception:  # noqa: BLE001 (a failed step is a value, not an error, here)
-            return self.FAIL_RHO
-        # a smooth bound on the spectral radius: max |l| <= (sum |l|^q)^(1/q) <= n^(1/q) max |l|
-        # (q = 32: a complex pair counts 2^(1/32) = 1.022); the plain max has kinks where two
-        # eigenvalues trade places, and IPOPT then oscillates
+        p[self.cols] = np.asarray(z, float).ravel()[self.ns:] * self.nlp.p_scale
+        return p
+
+    def _newton(self, x, p, max_iter: int = 8):
+        eye = np.eye(x.size)
+        for _ in range(max_iter):
+            try:
+                r = self.pmap.evaluate(x, p)
+            except Exception:  # noqa: BLE001 (a failed step means no fixed point here)
+                return None
+            G = r.x_next - x
+            if not np.all(np.isfinite(G)) or np.linalg.norm(G) > 0.5:
+                return None
+            if np.linalg.norm(G) < self.tol:
+                return x, r
+            x = x - np.linalg.solve(r.dx - eye, G)
+        return None
+
+    def _predict(self, p):
+        """First-order prediction of x*(p) from the last base fixed point."""
+        p_l, x_l, J_l, Jp_l = self.last
+        return x_l + np.linalg.solve(np.eye(x_l.size) - J_l, Jp_l @ (p - p_l))
+
+    def _fixed_point(self, z, update: bool):
+        p = self._params(z)
+        if update:
+            # the NLP's own section state first: near the fold a second fixed point (the
+            # other branch, with a different rho) lies close by, and a prediction from
+            # another iterate can land on it (measured: rho 0.94 there, 1.74 on the NLP's
+            # orbit). At a converged NLP the section state is the fixed point itself; the
+            # prediction only serves infeasible iterates whose state is too far for Newton
+            guesses = [np.asarray(z, float).ravel()[: self.ns]]
+            if self.last is not None:
+                guesses.append(self._predict(p))
+        else:
+            guesses = [self._predict(p)]  # a finite-difference neighbour of the base point
+        for x in guesses:
+            found = self._newton(x, p)
+            if found is not None:
+                if update:
+                    self.last = (p, found[0], found[1].dx, found[1].dp)
+                return found[1].dx
+        return None
+
+    @staticmethod
+    def _bound(J) -> float:
+        # max |l| <= (sum |l|^q)^(1/q) <= n^(1/q) max |l| (q = 32: a complex pair counts
+        # 2^(1/32) = 1.022); the plain max has kinks where two eigenvalues trade places
         m = np.abs(np.linalg.eigvals(J))
         top = m.max()
         return float(top * np.sum((m / top) ** RADIUS_NORM) ** (1 / RADIUS_NORM)) if top else 0.0
 
+    def _state_jacobian(self, z):
+        z = np.asarray(z, float).ravel()
+        try:
+            return self.pmap.evaluate(z[: self.ns], self._params(z)).dx
+        except Exception:  # noqa: BLE001 (a failed step is a value, not an error, here)
+            return None
+
+    def rho(self, z, update: bool = True) -> float:
+        """The bound at the NLP's unknowns ``z`` (section state, scaled free parameters).
+        Base points (``update``) fall back to the Jacobian at the NLP's own section state
+        where Newton finds no fixed point (an infeasible iterate far from any orbit; the
+        two agree as the iterate becomes feasible); their finite-difference neighbours use
+        the base point's definition."""
+        if update:
+            J = self._fixed_point(z, True)
+            self.mode = "fixed_point"
+            if J is None:
+                J, self.mode = self._state_jacobian(z), "state"
+        else:
+            J = self._fixed_point(z, False) if self.mode == "fixed_point" else \
+                self._state_jacobian(z)
+        return math.nan if J is None else self._bound(J)
+
     def gradient(self, z) -> np.ndarray:
         z = np.asarray(z, float).ravel()
+        r0 = self.rho(z)  # the base fixed point warm-starts the perturbed ones
         g = np.zeros(z.size)
-        for i in range(z.size):
+        if math.isnan(r0):
+            return np.full(z.size, math.nan)
+        for i in range(self.ns if self.mode == "fixed_point" else 0, z.size):
             e = np.zeros(z.size)
             e[i] = self.h * max(1.0, abs(z[i]))
-            g[i] = (self.rho(z + e) - self.rho(z - e)) / (2 * e[i])
+            up, down = self.rho(z + e, False), self.rho(z - e, False)
+            if math.isnan(up) or math.isnan(down):  # one-sided next to a missing fixed point
+                g[i] = (up - r0) / e[i] if math.isnan(down) else (r0 - down) / e[i]
+            else:
+                g[i] = (up - down) / (2 * e[i])
         return g
 
     def function(self, name: str = "rho") -> NumericFunction:
@@ -204,13 +293,21 @@ class _RadiusBound:
 
 
 class _BestFeasible(ca.Callback):
-    """IPOPT iteration callback keeping the feasible iterate (constraint violation below
-    ``tol``) with the lowest objective, for solves that stop on the iteration limit."""
+    """IPOPT iteration callback keeping the nearly feasible iterate (largest constraint
+    violation below ``tol``) with the lowest objective, and stopping IPOPT (status
+    User_Requested_Stop) once that objective has not improved by ``stall_tol`` for
+    ``stall_iter`` iterations. With the stability bound active, IPOPT can wander along it
+    for hundreds of iterations with the objective flat to 1e-4 and inf_pr jumping between
+    1e-5 and 1e-1; the kept iterate's compliance then starts the next round."""
 
-    def __init__(self, name, nx, ng, lbg, ubg, tol: float = 1e-7):
+    def __init__(self, name, nx, ng, lbg, ubg, tol: float = 1e-4, stall_iter: int = 30,
+                 stall_tol: float = 1e-4):
         ca.Callback.__init__(self)
         self.nx, self.ng, self.lbg, self.ubg, self.tol = nx, ng, lbg, ubg, tol
+        self.stall_iter, self.stall_tol = stall_iter, stall_tol
         self.best = None
+        self.iter = self.last_gain = 0
+        self.stalled = False
         self.construct(name, {})
 
     def get_n_in(self):
@@ -240,9 +337,13 @@ class _BestFeasible(ca.Callback):
         g = np.asarray(d["g"]).ravel()
         viol = max(float(np.max(self.lbg - g, initial=0)), float(np.max(g - self.ubg, initial=0)))
         f = float(d["f"])
+        self.iter += 1
         if viol < self.tol and (self.best is None or f < self.best[0]):
+            if self.best is None or f < self.best[0] - self.stall_tol:
+                self.last_gain = self.iter
             self.best = (f, np.asarray(d["x"]).ravel().copy())
-        return [0]
+        self.stalled = self.best is not None and self.iter - self.last_gain >= self.stall_iter
+        return [1 if self.stalled else 0]
 
 
 class _Solver:
@@ -305,14 +406,16 @@ class _Solver:
         f_sol = float(sol["f"])
         converged = st["return_status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
         if not converged and keeper.best is not None:
-            # stopped on the iteration limit: the best feasible iterate seen is the answer
+            # stopped on the iteration limit or stalled: the best nearly feasible iterate
+            # seen is the answer (the caller re-simulates it and may solve again from it)
             f_sol, x = keeper.best
         out = {"w": x[: nlp.w.shape[0]], "objective": f_sol,
                "lam_x": sol["lam_x"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
                "status": st["return_status"], "iterations": int(st["iter_count"]),
                "wall_time_s": time.perf_counter() - t0,
                "success": bool(st["success"]) or st["return_status"] in (
-                   "Solved_To_Acceptable_Level", "Maximum_Iterations_Exceeded")}
+                   "Solved_To_Acceptable_Level", "Maximum_Iterations_Exceeded",
+                   "User_Requested_Stop")}
         return out
 
 
@@ -352,12 +455,32 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         notes.append(f"start {s}: {exc}")
         log(notes[-1])
         return None, solves, notes
-    solver = _Solver(nlp, human, targets, opts)
-    log(f"start {s}: {len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, "
-        f"{nlp.g.shape[0]} constraints; solving with IPOPT")
-    out = solver.solve(nlp.w0)
-    cand = _check(problem, nlp, out, human, sim, s, 0, solves, notes, log)
-    converged = out["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    converged = False
+    cand = None
+    for rnd in range(opts.rounds):
+        if rnd:
+            # the objective interpolates the curves between RK4 samples chosen at the
+            # starting gait; once the durations have moved, the NLP is rebuilt at the last
+            # gait (exact simulator fixed point, new plan and brackets) and solved again
+            try:
+                nlp = ShootingNLP(problem, cand.state, cand.parameters, free=free,
+                                  sample_stride=opts.sample_stride, hs=sim.hs)
+            except ValueError as exc:
+                notes.append(f"start {s} round {rnd}: {exc}")
+                log(notes[-1])
+                break
+        else:
+            log(f"start {s}: {len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, "
+                f"{nlp.g.shape[0]} constraints; solving with IPOPT")
+        out = _Solver(nlp, human, targets, opts).solve(nlp.w0)
+        new = _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log)
+        if new is None:
+            break
+        cand = new
+        converged = out["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+        if converged and _consistency_gap(cand, targets) <= CONSISTENCY_TOL * max(
+                cand.objective, 1e-6):
+            break
     if cand is None or converged:
         return cand, solves, notes
     # IPOPT stopped on its iteration limit: keep the last compliance and solve the NLP
@@ -372,8 +495,14 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         notes.append(f"start {s}: {exc}")
         return cand, solves, notes
     out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
-    final = _check(problem, fixed, out, human, sim, s, 1, solves, notes, log)
+    final = _check(problem, fixed, out, human, sim, s, opts.rounds, solves, notes, log)
     return (final if final is not None else cand), solves, notes
+
+
+def _consistency_gap(cand: Candidate, targets) -> float:
+    """|NLP objective - sum of 1 - R^2 of the re-simulated gait|: zero when the objective's
+    sample brackets (chosen at the round's starting gait) still hold at its optimum."""
+    return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in targets))
 
 
 def _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log) -> Candidate | None:

@@ -66,3 +66,35 @@ def test_feasibility_solve_finds_the_compass_gait_fixed_point():
     xs = nlp.unpack(sol["x"].full())["xs"]
     assert np.abs(xs - ref.state).max() < 1e-7
     assert _jac_vs_fd(nlp, np.random.default_rng(2)) < 1e-6
+
+
+def test_stability_bound_is_the_fixed_points_and_its_gradient_matches_perturbed_fixed_points(
+        nlp6, problem):
+    """The NLP's stability row is a function of the parameters alone: moving the NLP's
+    section state off the orbit does not change it, it equals the smooth bound of the
+    eigenvalues of the exact Jacobian at the fixed point, and its derivative in k_ankle
+    matches fixed points solved independently at k_ankle +/- 1e-5 (relative)."""
+    from pdw_casadi.fit import RADIUS_NORM, _RadiusBound
+    from pdw_casadi.poincare import PoincareMap
+
+    def bound(fp):
+        m = np.abs(fp.eigenvalues)
+        return float(np.sum(m ** RADIUS_NORM) ** (1 / RADIUS_NORM))
+
+    rb = _RadiusBound(PoincareMap(problem), nlp6)
+    fp = find_fixed_point(problem)
+    z = np.r_[fp.state, np.ones(len(nlp6.free))]
+    r_on = rb.rho(z)
+    r_off = rb.rho(np.r_[fp.state + 1e-4, z[fp.state.size:]])
+    assert abs(r_on - bound(fp)) < 1e-8
+    assert abs(r_off - r_on) < 1e-8
+    i = problem.parameter_names.index("k_ankle")
+    d = 1e-5  # central-difference truncation at 1e-4 is 1.2e-3 (rho is that curved)
+    ends = []
+    for s in (1, -1):
+        p = fp.parameters.copy()
+        p[i] *= 1 + s * d
+        ends.append(bound(find_fixed_point(problem, fp.state, p)))
+    fd = (ends[0] - ends[1]) / (2 * d)  # per unit of the scaled parameter
+    g = rb.gradient(z)[fp.state.size + nlp6.free.index("k_ankle")]
+    assert abs(g - fd) < 1e-3 * abs(fd), (g, fd)
