@@ -171,11 +171,11 @@ class _RadiusBound:
     section state would couple it to the states of infeasible iterates, and rho is so
     steep in (x, p) near this walker's fold that IPOPT then wanders along the bound
     (measured: rho 0.94 in the NLP, 0.98 at the simulator's fixed point of the same
-    parameters). x*(p) comes from Newton's
-    method started at the NLP's section state (so that it is the NLP's own orbit, not the
-    other branch near the fold), else at the implicit-function prediction from the last
-    fixed point; the gradient is by central differences in the parameters (second
-    derivatives of the hybrid map are not available). Where no fixed point is found, the
+    parameters). x*(p) comes from Newton's method started at the NLP's section state (so
+    that it is the NLP's own orbit, not the other branch near the fold), else at the
+    implicit-function prediction from the last fixed point; the gradient is by central
+    differences in the parameters (second derivatives of the hybrid map are not
+    available). Where no fixed point is found, the
     Jacobian at the NLP's section state itself stands in (see :meth:`rho`); where the
     step fails even there, the value is NaN: IPOPT treats it as an evaluation error and
     cuts its step back (a large finite value sends it into restoration, measured)."""
@@ -440,8 +440,9 @@ def _starts(problem, opts: FitOptions) -> list[np.ndarray]:
 
 
 def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
-    """One start: fixed point of the starting compliance, NLP solve(s) with the stability
-    rounds, checks. Returns (candidate or None, solves, notes)."""
+    """One start: fixed point of the starting compliance, up to ``opts.rounds`` NLP solves
+    (each rebuilt at the previous answer), checks. Returns (the best round's candidate or
+    None, solves, notes)."""
     sim = Simulator(problem)
     targets = ("knee", opts.hip_target)
     free = tuple(opts.free or problem.compliance_names) + (("slope",) if opts.free_slope else ())
@@ -461,6 +462,7 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         return None, solves, notes
     converged = False
     cand = None
+    rounds = []  # every round's checked gait: a later round can end worse (or unstable)
     for rnd in range(opts.rounds):
         if rnd:
             # the objective interpolates the curves between RK4 samples chosen at the
@@ -481,12 +483,13 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         if new is None:
             break
         cand = new
+        rounds.append(new)
         converged = out["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
         if converged and _consistency_gap(cand, targets) <= CONSISTENCY_TOL * max(
                 cand.objective, 1e-6):
             break
     if cand is None or converged:
-        return cand, solves, notes
+        return _best_round(rounds, opts, targets), solves, notes
     # IPOPT stopped on its iteration limit: keep the last compliance and solve the NLP
     # again at it (states and durations only), so that what is reported is an exact NLP
     # gait of that compliance, re-simulated and checked like any other
@@ -500,7 +503,25 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         return cand, solves, notes
     out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
     final = _check(problem, fixed, out, human, sim, s, opts.rounds, solves, notes, log)
-    return (final if final is not None else cand), solves, notes
+    if final is not None:
+        rounds[-1] = final  # the same compliance, as an exact NLP gait
+    return _best_round(rounds, opts, targets), solves, notes
+
+
+def _good(c: Candidate, opts: FitOptions) -> bool:
+    return c.stable and c.valid and c.fixed_point.spectral_radius <= opts.max_radius
+
+
+def _score(c: Candidate, targets) -> float:
+    return float(np.mean([c.scores[f"r2_{t}"] for t in targets]))
+
+
+def _best_round(rounds: list[Candidate], opts: FitOptions, targets) -> Candidate | None:
+    """The stable, valid round with the best mean R^2 of the targets, else the last round."""
+    good = [c for c in rounds if _good(c, opts)]
+    if good:
+        return max(good, key=lambda c: _score(c, targets))
+    return rounds[-1] if rounds else None
 
 
 def _consistency_gap(cand: Candidate, targets) -> float:
@@ -569,10 +590,8 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     candidates = [r[0] for r in results if r[0] is not None]
     solves = [x for r in results for x in r[1]]
     notes = [x for r in results for x in r[2]]
-    good = [c for c in candidates if c.stable and c.valid
-            and c.fixed_point.spectral_radius <= opts.max_radius]
-    best = max(good, key=lambda c: np.mean([c.scores[f"r2_{t}"] for t in targets]),
-               default=None)
+    good = [c for c in candidates if _good(c, opts)]
+    best = max(good, key=lambda c: _score(c, targets), default=None)
     return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
                      targets, notes)
 
