@@ -319,7 +319,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
                         help="hip curve in the objective: the paper's hip (thigh + slope) "
                              "or the thigh from the vertical (default: %(default)s)")
-    parser.add_argument("--max-radius", type=float, default=0.95, metavar="R",
+    parser.add_argument("--max-radius", type=float, default=0.91, metavar="R",
                         help="largest accepted spectral radius (default: %(default)s)")
     parser.add_argument("--max-iter", type=_positive_int, default=150,
                         help="IPOPT iterations per solve (default: %(default)s)")

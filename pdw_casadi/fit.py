@@ -61,7 +61,7 @@ class FitOptions:
     hip_target: str = "hip"
     free_slope: bool = False
     slope_bounds: tuple[float, float] = (0.05, 0.25)  # rad
-    max_radius: float = 0.95
+    max_radius: float = 0.91  # the NLP bounds the smooth bound by 0.90, so rho <= 0.9
     stability_constraint: bool = True  # rho <= max_radius - 0.01 as an NLP constraint
     multistart: int = 1
     seed: int = 0
