@@ -193,6 +193,8 @@ class _RadiusBound:
         return p
 
     def _newton(self, x, p, max_iter: int = 8):
+        # plain Newton rather than find_fixed_point, which also evaluates the margins at
+        # its answer: that would double the cost of every finite difference
         eye = np.eye(x.size)
         for _ in range(max_iter):
             try:
