@@ -181,30 +181,25 @@ class LazyGroup:
         self._fast: dict | None = None
         self._np: dict | None = None
 
-    def __getitem__(self, key):
+    def _lazy(self, attr: str, build, key):
+        """Callable of function ``key``; the whole group is built by ``build`` on first use."""
         group = self
 
         def call(*args):
-            if group._fast is None:
+            if getattr(group, attr) is None:
                 keys = list(group.funs)
-                group._fast = dict(zip(keys, compiled([group.funs[k] for k in keys],
-                                                      group.flags), strict=True))
-            return group._fast[key](*args)
+                setattr(group, attr, dict(zip(keys, build([group.funs[k] for k in keys],
+                                                          group.flags), strict=True)))
+            return getattr(group, attr)[key](*args)
 
         return call
+
+    def __getitem__(self, key):
+        return self._lazy("_fast", compiled, key)
 
     def np(self, key):
         """Numpy-level callable of function ``key`` (see :class:`Native`)."""
-        group = self
-
-        def call(*args):
-            if group._np is None:
-                keys = list(group.funs)
-                group._np = dict(zip(keys, native([group.funs[k] for k in keys],
-                                                  group.flags), strict=True))
-            return group._np[key](*args)
-
-        return call
+        return self._lazy("_np", native, key)
 
 
 class Lazy:
