@@ -312,7 +312,6 @@ class _BestFeasible(ca.Callback):
         self.stall_iter, self.stall_tol, self.explore_gap = stall_iter, stall_tol, explore_gap
         self.best = None
         self.iter = self.last_gain = 0
-        self.stalled = False
         self.construct(name, {})
 
     def get_n_in(self):
@@ -351,8 +350,8 @@ class _BestFeasible(ca.Callback):
             # an infeasible iterate well below the best feasible objective: IPOPT is
             # still heading somewhere better (measured: 0.24 against 0.28), not stalled
             self.last_gain = self.iter
-        self.stalled = self.best is not None and self.iter - self.last_gain >= self.stall_iter
-        return [1 if self.stalled else 0]
+        stalled = self.best is not None and self.iter - self.last_gain >= self.stall_iter
+        return [1 if stalled else 0]
 
 
 class _Solver:
@@ -468,16 +467,15 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         log(notes[-1])
         return None, solves, notes
     converged = False
-    cand = None
-    rounds = []  # every round's checked gait: a later round can end worse (or unstable)
+    rounds: list[Candidate] = []  # every round's checked gait: a later one can end worse
     for rnd in range(opts.rounds):
         if rnd:
             # the objective interpolates the curves between RK4 samples chosen at the
             # starting gait; once the durations have moved, the NLP is rebuilt at the last
             # gait (exact simulator fixed point, new plan and brackets) and solved again
             try:
-                nlp = ShootingNLP(problem, cand.state, cand.parameters, free=free,
-                                  sample_stride=opts.sample_stride, hs=sim.hs)
+                nlp = ShootingNLP(problem, rounds[-1].state, rounds[-1].parameters,
+                                  free=free, sample_stride=opts.sample_stride, hs=sim.hs)
             except ValueError as exc:
                 notes.append(f"start {s} round {rnd}: {exc}")
                 log(notes[-1])
@@ -489,25 +487,24 @@ def _fit_start(problem, human, opts: FitOptions, s: int, p_start, log=print):
         new = _check(problem, nlp, out, human, sim, s, rnd, solves, notes, log)
         if new is None:
             break
-        cand = new
         rounds.append(new)
         converged = out["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-        if converged and _consistency_gap(cand, targets) <= CONSISTENCY_TOL * max(
-                cand.objective, 1e-6):
+        if converged and _consistency_gap(new, targets) <= CONSISTENCY_TOL * max(
+                new.objective, 1e-6):
             break
-    if cand is None or converged:
+    if not rounds or converged:
         return _best_round(rounds, opts, targets), solves, notes
-    # IPOPT stopped on its iteration limit: keep the last compliance and solve the NLP
+    # IPOPT stopped (iteration limit or stall): keep the last compliance and solve the NLP
     # again at it (states and durations only), so that what is reported is an exact NLP
     # gait of that compliance, re-simulated and checked like any other
     log(f"start {s}: IPOPT stopped ({out['status']}); re-solving the gait at its last "
         "compliance")
     try:
-        fixed = ShootingNLP(problem, cand.state, cand.parameters, free=(),
+        fixed = ShootingNLP(problem, rounds[-1].state, rounds[-1].parameters, free=(),
                             sample_stride=opts.sample_stride, hs=sim.hs)
     except ValueError as exc:
         notes.append(f"start {s}: {exc}")
-        return cand, solves, notes
+        return _best_round(rounds, opts, targets), solves, notes
     out = _Solver(fixed, human, targets, opts).solve(fixed.w0)
     final = _check(problem, fixed, out, human, sim, s, opts.rounds, solves, notes, log)
     if final is not None:
@@ -519,7 +516,8 @@ def _good(c: Candidate, opts: FitOptions) -> bool:
     return c.stable and c.valid and c.fixed_point.spectral_radius <= opts.max_radius
 
 
-def _score(c: Candidate, targets) -> float:
+def mean_score(c: Candidate, targets) -> float:
+    """Mean R^2 of ``targets`` ("knee", "hip", "thigh") of a candidate: what fits rank by."""
     return float(np.mean([c.scores[f"r2_{t}"] for t in targets]))
 
 
@@ -527,7 +525,7 @@ def _best_round(rounds: list[Candidate], opts: FitOptions, targets) -> Candidate
     """The stable, valid round with the best mean R^2 of the targets, else the last round."""
     good = [c for c in rounds if _good(c, opts)]
     if good:
-        return max(good, key=lambda c: _score(c, targets))
+        return max(good, key=lambda c: mean_score(c, targets))
     return rounds[-1] if rounds else None
 
 
@@ -598,7 +596,7 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     solves = [x for r in results for x in r[1]]
     notes = [x for r in results for x in r[2]]
     good = [c for c in candidates if _good(c, opts)]
-    best = max(good, key=lambda c: _score(c, targets), default=None)
+    best = max(good, key=lambda c: mean_score(c, targets), default=None)
     return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
                      targets, notes)
 

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from .curves import fit_scores, gait_cycle
-from .fit import Candidate, FitOptions, FitResult, fit_gait
+from .fit import Candidate, FitOptions, FitResult, fit_gait, mean_score
 from .fixed_point import find_fixed_point
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
@@ -53,8 +53,7 @@ def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
         return res.best, True
     if not res.candidates:
         return None, False
-    t = res.targets
-    return max(res.candidates, key=lambda c: np.mean([c.scores[f"r2_{x}"] for x in t])), False
+    return max(res.candidates, key=lambda c: mean_score(c, res.targets)), False
 
 
 def _table(rows: list[tuple[str, dict]]) -> str:
