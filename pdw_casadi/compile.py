@@ -152,7 +152,7 @@ class Native:
 _SCALAR = (float, int)
 
 
-def _interpreted(fun: ca.Function):
+def interpreted(fun: ca.Function):
     """Fallback for :class:`Native`: the CasADi function, outputs as numpy arrays."""
 
     def call(*args):
@@ -168,7 +168,7 @@ def native(funs: list, flags: tuple[str, ...]) -> list:
     """Numpy-level callables of ``funs`` compiled together (interpreted without a compiler)."""
     so = _library(funs, flags)
     if so is None:
-        return [_interpreted(f) for f in funs]
+        return [interpreted(f) for f in funs]
     return [Native(f, so) for f in funs]
 
 

@@ -1,9 +1,10 @@
 """The curve-fit objective on the multiple-shooting grid: 1 - R^2 of knee and hip, summed.
 
-MODEL.md's gait cycle runs from the swing leg's heel strike over two steps. Within one
-step of duration T with heel strike at t_hs, leg 1's angles at time t fall at cycle
+The gait cycle (docs/model.md) runs from the swing leg's heel strike over two steps. Within
+one step of duration T with heel strike at t_hs, leg 1's angles at time t fall at cycle
 percentage 100 (T - t_hs + t) / (2T) and leg 2's at 100 (t - t_hs) / (2T) after heel strike
-and 100 (2T - t_hs + t) / (2T) before it. The objective is the 101-point sum of
+and 100 (2T - t_hs + t) / (2T) before it. A walker whose step itself begins at the heel
+strike (``heel_strike_phase`` None: point feet) has t_hs = 0. The objective is the 101-point sum of
 squared errors of R^2 itself (see :func:`curve_errors`), divided by the human curve's sum of
 squares about its mean: 1 - R^2 per curve. The R^2 we report is always the one of the
 re-simulated gait (:mod:`pdw_casadi.curves`).
@@ -18,10 +19,14 @@ import numpy as np
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
 
 
+class CurveError(ValueError):
+    """The curves cannot be fitted: the walker or the curve file lacks a target."""
+
+
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
-    """Per target: (list of (err, weight), SS_tot) with ``err`` the model minus human angle
-    (deg) at the 101 points of the gait cycle (MX) and weight 1, so that
-    sum err^2 / SS_tot is 1 - R^2 of MODEL.md's 101-point definition.
+    """Per target: (err, SS_tot) with ``err`` the model minus human angle (deg) at the 101
+    points of the gait cycle (1 x 101 MX), so that sum err^2 / SS_tot is 1 - R^2 of the
+    101-point definition.
 
     The model's value at cycle point j is the linear interpolation between the two RK4
     samples (0.5 ms apart, of the leg whose part of the cycle holds j) that bracket it in the
@@ -29,14 +34,33 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     same interpolation as :func:`pdw_casadi.curves.gait_cycle`, so the objective is the R^2
     we report as long as the bracket holds, and stays smooth when it drifts.
     """
+    for target in targets:
+        if target not in TARGETS:
+            raise CurveError(f"unknown fit target {target!r} (one of {', '.join(TARGETS)})")
+        stem, column = TARGETS[target]
+        if getattr(human, column) is None:
+            raise CurveError(f"the gait file has no {column} column (needed for {target})")
+        names = set(nlp.output_names(nlp.specs[0].phase))
+        missing = [f"{stem}{leg}_deg" for leg in (1, 2) if f"{stem}{leg}_deg" not in names]
+        if missing:
+            raise CurveError(f"walker {nlp.model.name!r} has no {target} outputs "
+                             f"({', '.join(missing)}): it cannot be fitted to {target} curves")
     T = nlp.step_time
-    k_hs = next(k for k, s in enumerate(nlp.specs) if s.phase == nlp.model.heel_strike_phase)
-    t_hs = nlp.t_start[k_hs]
+    hs_phase = nlp.model.heel_strike_phase
     pct = {1: [], 2: []}
-    for k, _s in enumerate(nlp.specs):
-        ts = nlp.sample_t[k]
-        pct[1].append(100 * (T - t_hs + ts) / (2 * T))
-        pct[2].append(100 * ((ts - t_hs) if k >= k_hs else (2 * T - t_hs + ts)) / (2 * T))
+    if hs_phase is None:
+        # the step begins at leg 1's heel strike: leg 1 over the step, then leg 2
+        for k in range(len(nlp.specs)):
+            ts = nlp.sample_t[k]
+            pct[1].append(100 * ts / (2 * T))
+            pct[2].append(100 * (T + ts) / (2 * T))
+    else:
+        k_hs = next(k for k, s in enumerate(nlp.specs) if s.phase == hs_phase)
+        t_hs = nlp.t_start[k_hs]
+        for k in range(len(nlp.specs)):
+            ts = nlp.sample_t[k]
+            pct[1].append(100 * (T - t_hs + ts) / (2 * T))
+            pct[2].append(100 * ((ts - t_hs) if k >= k_hs else (2 * T - t_hs + ts)) / (2 * T))
     pct = {leg: ca.horzcat(*rows) for leg, rows in pct.items()}
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}
@@ -57,8 +81,6 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     out = {}
     for target in targets:
         stem, column = TARGETS[target]
-        if getattr(human, column) is None:
-            raise ValueError(f"the gait file has no {column} column (needed for {target})")
         vals = np.asarray(getattr(h, column), float)
         ss_tot = float(np.sum((vals - vals.mean()) ** 2))
         model = {leg: ca.horzcat(*[nlp.output(k, f"{stem}{leg}_deg")
@@ -68,14 +90,6 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
             pa, pb = pct[leg][a], pct[leg][b]
             ya, yb = model[leg][a], model[leg][b]
             errs.append(ya + (yb - ya) * (g - pa) / (pb - pa) - v)
-        out[target] = ([(ca.horzcat(*errs), 1.0)], ss_tot)
+        out[target] = (ca.horzcat(*errs), ss_tot)
     return out
 
-
-def curve_objective(nlp, human, targets=("knee", "hip")):
-    """Sum over ``targets`` of 1 - R^2 (101-point, :func:`curve_errors`) as an MX expression
-    of the NLP's unknowns. Returns (objective, terms) with one 1 - R^2 per target."""
-    terms = {}
-    for target, (parts, ss_tot) in curve_errors(nlp, human, targets).items():
-        terms[target] = sum(w * ca.sumsqr(err) for err, w in parts) / ss_tot
-    return sum(terms.values()), terms
