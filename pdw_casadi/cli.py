@@ -31,11 +31,12 @@ from typing import NoReturn
 
 import numpy as np
 
+from .fit.objective import CurveError
 from .gait_data import GaitDataError
 from .problem import Problem, ProblemError, load_overrides, load_problem
 
 #: exceptions that are the user's input, reported as ``error: ...`` with exit code 2
-USER_ERRORS = (ProblemError, GaitDataError, OSError)
+USER_ERRORS = (ProblemError, GaitDataError, CurveError, OSError)
 
 
 # --------------------------------------------------------------------------------------------
@@ -311,9 +312,11 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--gait", required=True, metavar="FILE",
                         help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
     parser.add_argument("--multistart", type=_positive_int, default=1, metavar="N",
-                        help="number of starts: the problem's compliance, then random "
-                             "perturbations of it (default: %(default)s)")
-    parser.add_argument("--seed", type=int, default=0, help="multistart seed (default: 0)")
+                        help="start from the N gait-atlas entries whose curves fit best "
+                             "(default: %(default)s)")
+    parser.add_argument("--atlas", metavar="FILE",
+                        help="gait atlas to start from (default: the bundled one of the "
+                             "problem; 'none': start from the problem's own compliance)")
     parser.add_argument("--free-slope", action="store_true",
                         help="let the slope be an unknown too (0.05..0.25 rad)")
     parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
@@ -321,14 +324,18 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                              "or the thigh from the vertical (default: %(default)s)")
     parser.add_argument("--max-radius", type=float, default=0.91, metavar="R",
                         help="largest accepted spectral radius (default: %(default)s)")
-    parser.add_argument("--max-iter", type=_positive_int, default=150,
+    parser.add_argument("--max-iter", type=_positive_int, default=300,
                         help="IPOPT iterations per solve (default: %(default)s)")
-    parser.add_argument("--rounds", type=_positive_int, default=3,
-                        help="NLP solves per start, each rebuilt at the previous answer's "
-                             "gait (default: %(default)s)")
+    parser.add_argument("--rounds", type=_positive_int, default=2,
+                        help="NLP solves per start: a further one is built at the answer only "
+                             "when the objective's sample brackets moved (default: %(default)s)")
     parser.add_argument("--workers", type=_positive_int, default=1,
                         help="processes for the multistart (default: 1)")
-    parser.add_argument("--quiet", action="store_true", help="no IPOPT iteration log")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="Dask scheduler for the multistart (e.g. tcp://host:8786)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress lines (the IPOPT log is still written to "
+                             "DIR/ipopt.log)")
     args = parser.parse_args(argv)
     with _errors():
         from .fit import FitOptions
@@ -339,12 +346,22 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         problem = load_cli_problem(args)
         if not 0 < args.max_radius < 1:
             _fail(f"--max-radius must be in (0, 1), got {args.max_radius}")
+        atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+        if atlas and not Path(atlas).is_file():
+            _fail(f"--atlas {atlas}: no such file")
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                           max_radius=args.max_radius, multistart=args.multistart,
-                          seed=args.seed, max_iter=args.max_iter, rounds=args.rounds,
+                          atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
                           verbose=not args.quiet)
+        from .fit import check_targets
+
+        check_targets(problem, human, opts)
         out = _out_dir(args.out)
+        log_file = out / "ipopt.log"
+        log_file.unlink(missing_ok=True)
+        opts.log_file = str(log_file)
         summary = fit_and_report(problem, human, opts, out, workers=args.workers,
+                                 scheduler=args.scheduler,
                                  log=lambda m: print(m, file=sys.stderr, flush=True))
     print(summary["headline"])
     print(f"wrote {out}")

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from .curves import fit_scores, gait_cycle
-from .fit import Candidate, FitOptions, FitResult, fit_gait, mean_score
+from .fit import Candidate, FitOptions, FitResult, check_targets, fit_gait, mean_score
 from .fixed_point import find_fixed_point
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
@@ -73,14 +73,15 @@ def _table(rows: list[tuple[str, dict]]) -> str:
 
 
 def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1,
-                   log=print) -> dict:
+                   log=print, scheduler: str | None = None) -> dict:
     """Fit, compare with the references, write the report files into ``out``; the summary."""
     out = Path(out)
+    check_targets(problem, human, opts)  # before the reference solves
     log("reference: the problem's own compliance (Table 3) on the same data")
     table3 = reference_gait(problem, human)
     log("reference: the comparison walker (point feet, locked stance knee)")
     comparison = reference_gait(load_problem(COMPARISON_PROBLEM), human)
-    res = fit_gait(problem, human, opts, log=log, workers=workers)
+    res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
     cand, ok = _pick(res)
     h = human.resample(101)
     curves = pd.DataFrame({"cycle_pct": h.cycle_pct, "human_knee_deg": h.knee_deg,
@@ -138,7 +139,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             "step_time_s": fp.step_time_s, "step_length_m": fp.step_length_m,
             "speed_m_s": fp.step_length_m / fp.step_time_s,
             "resimulation_deviation": cand.resimulation_deviation,
-            "resimulation_steps": 20, "accepted": ok})
+            "resimulation_steps": opts.resim_steps, "accepted": ok})
         sim = Simulator(problem)
         two = sim.run(cand.state, cand.parameters, steps=2, record=True)
         plot_limit_cycle(two.trajectory, out / "limit_cycle.png",

@@ -68,33 +68,89 @@ def test_feasibility_solve_finds_the_compass_gait_fixed_point():
     assert _jac_vs_fd(nlp, np.random.default_rng(2)) < 1e-6
 
 
-def test_stability_bound_is_the_fixed_points_and_its_gradient_matches_perturbed_fixed_points(
-        nlp6, problem):
-    """The NLP's stability row is a function of the parameters alone: moving the NLP's
-    section state off the orbit does not change it, it equals the smooth bound of the
-    eigenvalues of the exact Jacobian at the fixed point, and its derivative in k_ankle
-    matches fixed points solved independently at k_ankle +/- 1e-5 (relative)."""
-    from pdw_casadi.fit import RADIUS_NORM, _RadiusBound
-    from pdw_casadi.poincare import PoincareMap
+class _Periodic:
+    """Newton on the NLP's equality rows (square once the free parameters are held): the
+    NLP's own periodic orbit, solved independently at any parameter value."""
 
-    def bound(fp):
-        m = np.abs(fp.eigenvalues)
-        return float(np.sum(m ** RADIUS_NORM) ** (1 / RADIUS_NORM))
+    def __init__(self, nlp):
+        eq = np.flatnonzero(nlp.lbg == nlp.ubg).tolist()
+        self.g = ca.Function("g", [nlp.w], [nlp.g[eq]])
+        self.J = ca.Function("J", [nlp.w], [ca.jacobian(nlp.g[eq], nlp.w)])
+        ns, nf = nlp.xs.shape[0], len(nlp.free)
+        self.ns = ns
+        self.cols = np.r_[np.arange(ns), np.arange(ns + nf, nlp.w.shape[0])]
 
-    rb = _RadiusBound(PoincareMap(problem), nlp6)
+    def jacobian(self, w):
+        from scipy.sparse import csc_matrix
+
+        Jd = self.J(w)
+        r, c = Jd.sparsity().get_triplet()
+        return csc_matrix((np.asarray(Jd.nonzeros()), (r, c)), shape=Jd.shape)
+
+    def solve(self, w, iters: int = 12):
+        from scipy.sparse.linalg import spsolve
+
+        w = w.copy()
+        for _ in range(iters):
+            res = self.g(w).full().ravel()
+            step = spsolve(self.jacobian(w)[:, self.cols], res)
+            w[self.cols] -= step
+            if np.abs(step).max() < 1e-13:  # converged to round-off
+                break
+        assert np.abs(self.g(w).full()).max() < 1e-10
+        return w
+
+
+def test_stability_row_derivative_matches_independently_solved_fixed_points(problem):
+    """The stability row's exact total derivative in k_ankle along the NLP's periodic orbits
+    (its gradient, chained through the implicit function of the equality rows) matches
+    central differences (Richardson) of orbits solved independently by Newton at
+    k_ankle (1 +/- d), to 1e-5 relative; at the orbit the row equals the smooth bound of the
+    simulator's exact eigenvalues to 1e-7."""
+    from pdw_casadi.fit import RADIUS_NORM, StabilityRow
+
     fp = find_fixed_point(problem)
-    z = np.r_[fp.state, np.ones(len(nlp6.free))]
-    r_on = rb.rho(z)
-    r_off = rb.rho(np.r_[fp.state + 1e-4, z[fp.state.size:]])
-    assert abs(r_on - bound(fp)) < 1e-8
-    assert abs(r_off - r_on) < 1e-8
-    i = problem.parameter_names.index("k_ankle")
-    d = 1e-5  # central-difference truncation at 1e-4 is 1.2e-3 (rho is that curved)
-    ends = []
-    for s in (1, -1):
-        p = fp.parameters.copy()
-        p[i] *= 1 + s * d
-        ends.append(bound(find_fixed_point(problem, fp.state, p)))
-    fd = (ends[0] - ends[1]) / (2 * d)  # per unit of the scaled parameter
-    g = rb.gradient(z)[fp.state.size + nlp6.free.index("k_ankle")]
-    assert abs(g - fd) < 1e-3 * abs(fd), (g, fd)
+    nlp = ShootingNLP(problem, fp.state, fp.parameters, free=("k_ankle",))
+    from scipy.sparse.linalg import spsolve
+
+    row = StabilityRow(nlp)
+    orbit = _Periodic(nlp)
+    w = orbit.solve(nlp.w0)
+    ns, cols = orbit.ns, orbit.cols
+    sim_bound = float(np.sum(np.abs(fp.eigenvalues) ** RADIUS_NORM) ** (1 / RADIUS_NORM))
+    assert abs(row.value(w) - sim_bound) < 1e-7
+    # exact total derivative d rho / d pf
+    grad = row.gradient(w)
+    A = orbit.jacobian(w)
+    dw = -spsolve(A[:, cols], A[:, [ns]].toarray().ravel())
+    exact = grad[ns] + grad[cols] @ dw
+
+    def rho_at(delta):
+        w1 = w.copy()
+        w1[ns] += delta
+        w1[cols] += delta * dw  # predictor; Newton then solves the orbit afresh
+        return row.value(orbit.solve(w1))
+
+    def central(d):
+        return (rho_at(d) - rho_at(-d)) / (2 * d)
+
+    d = 1e-4
+    fd = (4 * central(d) - central(2 * d)) / 3
+    assert abs(exact - fd) < 1e-5 * abs(fd), (exact, fd)
+
+
+def test_stability_row_gradient_is_exact_off_the_orbit(nlp6):
+    """At an infeasible point near the orbit, the row's reverse-mode gradient matches
+    central differences of the row itself in random directions (1e-6 relative)."""
+    from pdw_casadi.fit import StabilityRow
+
+    row = StabilityRow(nlp6)
+    rng = np.random.default_rng(3)
+    w = nlp6.w0 * (1 + 1e-5 * rng.standard_normal(nlp6.w0.size))
+    g = row.gradient(w)
+    for _ in range(3):
+        v = rng.standard_normal(w.size)
+        v /= np.linalg.norm(v)
+        eps = 1e-6
+        fd = (row.value(w + eps * v) - row.value(w - eps * v)) / (2 * eps)
+        assert abs(g @ v - fd) < 1e-6 * max(abs(fd), 1.0), (g @ v, fd)

@@ -83,8 +83,10 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
         cand = evaluate_gait(problem, u["xs"], u["p"], human, sim, opts.resim_steps,
                              opts.resim_tol) if out["success"] else None
         rho = cand.fixed_point.spectral_radius if cand else float("nan")
+        hist = out["history"]
         solves.append(Solve(s, rnd, out["status"], out["iterations"], out["wall_time_s"],
-                            out["objective"], rho))
+                            out["objective"], rho,
+                            hist[-1].spectral_bound if hist else float("nan")))
         log(f"start {s} round {rnd}: {out['status']} after {out['iterations']} iterations "
             f"({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, spectral radius "
             f"{rho:.4f}" + (f", r2_knee {cand.scores['r2_knee']:.3f} r2_hip "
