@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 from conftest import full_states
 
-from pdw_casadi.compile import Lazy, _interpreted
+from pdw_casadi.compile import Lazy, interpreted
 
 
 def test_native_call_matches_casadi(tmp_path, monkeypatch):
@@ -24,7 +24,7 @@ def test_native_call_matches_casadi(tmp_path, monkeypatch):
         args = (rng.normal(size=3), float(rng.normal()), list(rng.normal(size=2)))
         ref = [np.asarray(v) for v in fun(*args)]
         dm = [np.asarray(v) for v in lazy(*args)]
-        for got in (dm, lazy.np(*args), _interpreted(fun)(*args)):
+        for got in (dm, lazy.np(*args), interpreted(fun)(*args)):
             assert len(got) == 3
             for r, g in zip(ref, got, strict=True):
                 assert g.shape == r.shape

@@ -134,7 +134,7 @@ def test_stability_row_derivative_matches_independently_solved_fixed_points(prob
     def central(d):
         return (rho_at(d) - rho_at(-d)) / (2 * d)
 
-    d = 1e-4
+    d = 1e-5
     fd = (4 * central(d) - central(2 * d)) / 3
     assert abs(exact - fd) < 1e-5 * abs(fd), (exact, fd)
 
