@@ -31,6 +31,19 @@ Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
 #: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
 SWAP = (3, 2, 1, 0, 5, 4)
 
+# -- faces of the walker for plots and reports (see pdw_casadi.faces) ---------------------
+PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
+                      "II": "single stance on the flat foot, swing",
+                      "III": "trailing toe + leading heel pivots"}
+#: (shank, thigh) of one physical leg: leg 1 (stance) in step 0, leg 2 (swing) in step 1
+LIMIT_CYCLE_LEGS = (("q1", "q2"), ("q4", "q3"))
+LEG_SEGMENTS = ("shank", "thigh")
+CURVE_JOINTS = ("knee", "hip")
+#: instants of the paper's Fig. 4: a (foot strike), b (toe-off), c (heel strike)
+INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c"}
+#: the paper's comparison walker [48] (point feet, locked stance knee), this anthropometry
+COMPARISON_PROBLEM = "comparison_kneed_6link"
+
 
 def check_anthropometry(a, where) -> None:
     """Foot geometry must close: heel-to-ankle + ankle-to-toe = foot length."""
