@@ -12,7 +12,8 @@ family module (:mod:`pdw_casadi.walkers`), which may define
   something (a rigid-legged walker has no knee); the gait-curve fit needs knee and hip;
 - ``INSTANT_LABELS``: transition name -> label of the instant in the limit-cycle figure
   (the 6-link walker uses the paper's a/b/c of Fig. 4); default: the transition name;
-- ``COMPARISON_PROBLEM``: a bundled problem that a fit report compares against.
+- ``COMPARISON_PROBLEM``: a bundled problem that a fit report compares against;
+- ``PAPER_REPORTED_R2``: R^2 values a publication reports for this walker (fit report).
 
 Nothing here names a particular walker's phases.
 """
@@ -55,6 +56,7 @@ class WalkerFaces:
     instant_labels: Mapping[str, str] = field(default_factory=dict)
     heel_strike_phase: str | None = None
     comparison_problem: str | None = None
+    paper_reported: Mapping[str, float] | None = None
 
     def phase_color(self, phase: str) -> str:
         if phase in self.phases:
@@ -110,6 +112,7 @@ def walker_faces(problem, hs=None) -> WalkerFaces:
         instant_labels=dict(getattr(fam, "INSTANT_LABELS", {})),
         heel_strike_phase=model.heel_strike_phase,
         comparison_problem=getattr(fam, "COMPARISON_PROBLEM", None),
+        paper_reported=getattr(fam, "PAPER_REPORTED_R2", None),
     )
 
 

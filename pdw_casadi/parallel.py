@@ -17,6 +17,7 @@ each worker compiles once).
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -52,12 +53,24 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
     if scheduler is not None:
         yield from _dask_map(fn, items, scheduler)
     elif workers > 1 and len(items) > 1:
-        with ProcessPoolExecutor(max_workers=min(workers, len(items)),
-                                 mp_context=_pool_context()) as pool:
+        # the workers ignore Ctrl-C (no traceback from every process); the parent stops them
+        pool = ProcessPoolExecutor(max_workers=min(workers, len(items)),
+                                   mp_context=_pool_context(), initializer=_ignore_sigint)
+        try:
             yield from pool.map(fn, items)
+        except BaseException:  # KeyboardInterrupt, a failed task, the consumer stopping
+            for proc in list(getattr(pool, "_processes", {}).values()):
+                proc.terminate()
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown()
     else:
         for item in items:
             yield fn(item)
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _dask_map(fn, items, scheduler: str):

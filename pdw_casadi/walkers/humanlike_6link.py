@@ -43,6 +43,8 @@ CURVE_JOINTS = ("knee", "hip")
 INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c"}
 #: the paper's comparison walker [48] (point feet, locked stance knee), this anthropometry
 COMPARISON_PROBLEM = "comparison_kneed_6link"
+#: R^2 of the paper's own fit (its four subjects), shown beside a fit for comparison
+PAPER_REPORTED_R2 = {"r2_knee": 0.891, "r2_hip": 0.899}
 
 
 def check_anthropometry(a, where) -> None:
