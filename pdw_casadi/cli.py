@@ -312,7 +312,8 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         if result.failure is not None:
             f = result.failure
             print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
-                  f"t = {f.time:.4f} s: {f.reason}", file=sys.stderr)
+                  f"t = {f.time:.4f} s: {f.reason}"
+                  + (f" ({f.detail})" if f.reason == "sample_limit" else ""), file=sys.stderr)
         return 0
 
     return run(outputs, body)

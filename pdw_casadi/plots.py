@@ -123,7 +123,8 @@ def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None,
             for ax, joint in zip(axes, joints, strict=True):
                 ax.plot(t, angles[joint], color=LEG_COLORS[leg], lw=1.4,
                         label=f"leg {leg}" + (" (stance in step 0)" if leg == "A" else ""))
-        axes[0].set_xlim(spans[0][2], spans[-1][3])
+        if spans[-1][3] > spans[0][2]:
+            axes[0].set_xlim(spans[0][2], spans[-1][3])
         axes[0].legend(loc="upper left", fontsize=8, framealpha=0.9)
     for ax, joint in zip(axes, joints, strict=True):
         ax.set_ylabel(JOINT_LABELS.get(joint, f"{joint} [deg]"))

@@ -114,8 +114,10 @@ class Problem:
         if "compliance" in changes:
             unknown = set(changes["compliance"]) - set(self.compliance)
             if unknown:
+                known = (f"known: {', '.join(self.compliance)}" if self.compliance
+                         else f"the {self.family} walker has no compliance values")
                 raise ProblemError(f"{self.name}: unknown compliance key(s) {sorted(unknown)}; "
-                                   f"known: {', '.join(self.compliance)}")
+                                   f"{known}")
             changes["compliance"] = {**self.compliance, **changes["compliance"]}
         for key in ("anthropometry", "compliance", "initial_state", "numerics", "validity",
                     "compliance_bounds"):

@@ -337,6 +337,7 @@ class Simulator:
         event_rows: list[dict] = []
         records: list[StepRecord] = []
         failure = None
+        n_samples = n_counted = 0  # recorded samples (for max_samples), entries counted
         transitions = hs.transitions
         first = hs.phase_names[0]
         for k in range(steps):
@@ -432,8 +433,11 @@ class Simulator:
                 break
             if progress is not None:
                 progress(k + 1)
+            if max_samples is not None and rec is not None:
+                n_samples += sum(e[3].shape[1] for e in rec[n_counted:])
+                n_counted = len(rec)
             if max_samples is not None and rec is not None and k + 1 < steps \
-                    and sum(e[3].shape[1] for e in rec) > max_samples:
+                    and n_samples > max_samples:
                 failure = Failure("sample_limit", k, t, phase,
                                   f"the recorded trajectory exceeds {max_samples} samples "
                                   f"after {k + 1} steps; ask for fewer steps")
