@@ -145,20 +145,22 @@ def _existing_ancestor(path: Path) -> Path:
     return path
 
 
-def check_writable_dir(path: Path, flag: str) -> None:
+def check_writable_dir(path: Path, flag: str, shown: Path | None = None) -> None:
     """Raise :class:`UsageError` unless directory ``path`` exists or can be created, and
-    files can be written in it. Nothing is left behind."""
+    files can be written in it. Nothing is left behind. ``shown``: the path named in the
+    message (default ``path``)."""
     path = Path(path)
+    shown = path if shown is None else shown
     if path.exists() and not path.is_dir():
-        raise UsageError(f"{flag} {path}: exists and is not a directory")
+        raise UsageError(f"{flag} {shown}: {path} exists and is not a directory")
     base = _existing_ancestor(path)
     if not base.is_dir():
-        raise UsageError(f"{flag} {path}: {base} is not a directory")
+        raise UsageError(f"{flag} {shown}: {base} is not a directory")
     try:  # the only reliable test (permissions, read-only or virtual file systems, root)
         with tempfile.TemporaryDirectory(dir=base, prefix=".pdw-write-test-"):
             pass
     except OSError as exc:
-        raise UsageError(f"{flag} {path}: cannot write in {base}: "
+        raise UsageError(f"{flag} {shown}: cannot write in {base}: "
                          f"{exc.strerror or exc}") from None
 
 
@@ -172,7 +174,7 @@ def check_output_file(path: Path, flag: str, suffixes: tuple[str, ...] = ()) -> 
         raise UsageError(f"{flag} {path}: is a directory")
     if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{flag} {path}: exists and is not writable")
-    check_writable_dir(path.parent, flag)
+    check_writable_dir(path.parent, flag, shown=path)
 
 
 def check_input_file(path: Path, flag: str) -> Path:
