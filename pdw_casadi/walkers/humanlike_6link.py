@@ -1,6 +1,6 @@
 """The humanlike 6-link walker of the paper (flat feet, compliant ankles, engageable knees).
 
-Conventions follow the project's MODEL.md: absolute angles from the vertical with link
+Conventions follow docs/model.md of the repository: absolute angles from the vertical with link
 direction d(q) = (sin q, -cos q); q = [q1, q2, q3, q4, qf1, qf2, x_t1, y_t1]; three phases
 per step (I: leading foot flat + trailing toe pivot; II: single stance on the flat foot;
 III: trailing toe + leading heel pivots), heel strike and foot strike impacts, then a leg

@@ -7,7 +7,7 @@ leg is a shank (point mass ``m_s`` at ``a1`` from the foot, ``b1`` from the knee
 ``J_s`` about it) and a thigh (``m_t`` at ``a2`` from the knee, ``b2`` from the hip, ``J_t``),
 plus a hip mass ``m_h``. Both feet are points; no compliance, so p = [slope].
 
-Conventions (as in MODEL.md): absolute angles from the vertical, link direction
+Conventions (docs/model.md): absolute angles from the vertical, link direction
 proximal -> distal d(q) = (sin q, -cos q) (hip -> knee -> foot), so q grows counter-clockwise
 and the walker walks downhill along +x; the stance foot is at (x_foot, y_foot).
 
