@@ -379,6 +379,21 @@ def test_num_says_the_same_bound_for_0_and_1(tmp_path, capsys):
     assert msgs[0] == msgs[1] and "--num must be >= 2" in msgs[0]
 
 
+@pytest.mark.parametrize("edit, fragment", [
+    (lambda f: f.assign(knee_sd_deg=-1.0), "negative value -1.0"),
+    (lambda f: f.assign(cycle_pct=f["cycle_pct"] / 100), "got 1.0"),
+    (lambda f: f.assign(hip_mean_deg=np.inf), "non-finite value inf"),
+])
+def test_no_numpy_reprs_in_gait_file_messages(tmp_path, edit, fragment):
+    from pdw_casadi.gait_data import GaitDataError, load_gait_curves
+
+    path = tmp_path / "g.csv"
+    edit(pd.read_csv(ROOT / "data" / "female_fast.csv")).to_csv(path, index=False)
+    with pytest.raises(GaitDataError) as info:
+        load_gait_curves(path)
+    assert "np." not in str(info.value) and fragment in str(info.value), str(info.value)
+
+
 def test_no_numpy_reprs_in_messages(tmp_path):
     path = tmp_path / "s.json"
     path.write_text('{"q1": Infinity}')
@@ -395,7 +410,7 @@ def test_no_numpy_reprs_in_messages(tmp_path):
 def test_reversed_bounds_are_named_reversed(tmp_path):
     path = problem_file(tmp_path, HL.replace("k_knee = [10.0, 1000.0]",
                                              "k_knee = [1000.0, 10.0]"))
-    with pytest.raises(ProblemError, match="reversed"):
+    with pytest.raises(ProblemError, match=r"is reversed \(lower > upper\)"):
         load_problem(path)
 
 
