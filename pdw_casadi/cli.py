@@ -47,6 +47,7 @@ from .cli_contract import (
     int_range,
     open_interval,
     run,
+    user_errors,
 )
 from .problem import Problem, ProblemError, check_bounds, load_overrides, load_problem
 
@@ -117,6 +118,10 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
                    help="output directory (created if missing)"
                         + ("" if out_default is None else " (default: %(default)s)"))
     return parent
+
+
+#: the block's expected user errors become one ``error:`` line and exit code 2
+_errors = user_errors
 
 
 def _positive_int(text: str) -> int:
@@ -597,9 +602,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         found = [0]
 
         def note() -> None:
-            outputs.notes[:] = [f"{found[0]} rows found so far are in {partial}"
-                                + (f" ({csv_path} of an earlier run untouched)"
-                                   if csv_path.exists() else "")]
+            rows = (f"{found[0]} rows found so far are in {partial}" if found[0]
+                    else "no sweep rows found yet")
+            outputs.notes[:] = [rows + (f" ({csv_path} of an earlier run untouched)"
+                                        if csv_path.exists() else "")]
 
         note()
 

@@ -19,11 +19,12 @@ directory and records every file written, so the interruption line can name them
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlsplit
@@ -284,6 +285,18 @@ def connect_scheduler(address: str, timeout: float = 5.0) -> None:
 
 
 # -- running a command -------------------------------------------------------------------------
+@contextlib.contextmanager
+def user_errors() -> Iterator[None]:
+    """Turn the expected user errors raised inside the block into :func:`fail` (one
+    ``error:`` line, exit code 2)."""
+    try:
+        yield
+    except USER_ERRORS as exc:
+        if isinstance(exc, OSError) and exc.filename is not None:
+            fail(f"{exc.filename}: {exc.strerror or exc}")
+        fail(exc)
+
+
 def run(outputs: Outputs | None, body: Callable[[], int]) -> int:
     """Run a command body under the contract (module docstring); its exit code."""
     try:
@@ -298,9 +311,8 @@ def run(outputs: Outputs | None, body: Callable[[], int]) -> int:
         print(f"no gait: {one_line(exc)}", file=sys.stderr, flush=True)
         return EXIT_NO_GAIT
     except USER_ERRORS as exc:
-        if isinstance(exc, OSError) and exc.filename is not None:
-            fail(f"{exc.filename}: {exc.strerror or exc}")
-        fail(exc)
+        with user_errors():
+            raise exc from None
     except Exception as exc:
         if os.environ.get("PDW_DEBUG"):
             raise

@@ -338,13 +338,14 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
             problem = f"duplicate value {float(pct[i])!r} at data rows {i + 1} and {i + 2}"
         else:
             problem = (
-                f"not increasing: {float(pct[i + 1])!r} at data row {i + 2} follows {float(pct[i])!r} at "
-                f"data row {i + 1} (rows out of order?)"
+                f"not increasing: {float(pct[i + 1])!r} at data row {i + 2} follows "
+                f"{float(pct[i])!r} at data row {i + 1} (rows out of order?)"
             )
         raise GaitDataError(f"{where}: column 'cycle_pct' must be strictly increasing; {problem}")
     if abs(pct[0]) > CYCLE_TOL:
         raise GaitDataError(
-            f"{where}: column 'cycle_pct' must start at 0 (% of the gait cycle), got {float(pct[0])!r}"
+            f"{where}: column 'cycle_pct' must start at 0 (% of the gait cycle), "
+            f"got {float(pct[0])!r}"
         )
     if abs(pct[-1] - 100.0) > CYCLE_TOL:
         hint = " (a fraction of the cycle? use percent)" if abs(pct[-1] - 1.0) <= CYCLE_TOL else ""
