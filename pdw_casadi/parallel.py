@@ -20,7 +20,6 @@ import multiprocessing
 import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from typing import TypeVar
 
 T = TypeVar("T")
@@ -53,17 +52,12 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
     if scheduler is not None:
         yield from _dask_map(fn, items, scheduler)
     elif workers > 1 and len(items) > 1:
-        # the workers ignore Ctrl-C (no traceback from every process); the parent stops them
-        pool = ProcessPoolExecutor(max_workers=min(workers, len(items)),
-                                   mp_context=_pool_context(), initializer=_ignore_sigint)
-        try:
-            yield from pool.map(fn, items)
-        except BaseException:  # KeyboardInterrupt, a failed task, the consumer stopping
-            for proc in list(getattr(pool, "_processes", {}).values()):
-                proc.terminate()
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-        pool.shutdown()
+        # a multiprocessing pool, not concurrent.futures: terminate() stops the workers at
+        # once (Ctrl-C, a failed task, the consumer stopping) without tracebacks; the
+        # workers ignore Ctrl-C themselves, the parent stops them
+        with _pool_context().Pool(processes=min(workers, len(items)),
+                                  initializer=_ignore_sigint) as pool:
+            yield from pool.imap(fn, items)
     else:
         for item in items:
             yield fn(item)
