@@ -1,42 +1,65 @@
 """Console scripts of the toolkit.
 
 Each command is a ``*_main(argv=None)`` function registered in :data:`COMMANDS` and exposed
-as a console script in ``pyproject.toml`` (``pdw-simulate`` -> :func:`simulate_main`). They
-share:
+as a console script in ``pyproject.toml`` (``pdw-simulate`` -> :func:`simulate_main`). All of
+them keep the contract of :mod:`pdw_casadi.cli_contract`: every argument, file, number,
+bound and address is checked before the output directory is created; bad input is one line
+``error: ...`` and exit code 2 with nothing written; "ran, but no gait" is exit code 1 with
+a ``no gait: <reason>`` line; never a traceback; Ctrl-C ends with one line naming what is on
+disk. They share:
 
 - :func:`common_parser`: the parent argparse parser with ``--problem``, ``--state``,
   ``--compliance`` and ``--out``;
 - :func:`load_cli_problem`: the problem with the ``--state`` / ``--compliance`` overrides
-  applied;
-- :func:`_fail`: expected errors (bad problem, override or gait file, unwritable output)
-  become one line ``error: ...`` on stderr and exit code 2, never a traceback;
+  applied (overrides obey the problem's ``compliance_bounds``);
 - :func:`_write_json`: JSON output with numpy scalars/arrays, paths and non-finite floats
   (written as ``null``) handled.
 
-Adding a command: write ``foo_main(argv=None)`` that builds its parser with
-``parents=[common_parser()]``, runs its body inside ``with _errors():``, and add it to
-:data:`COMMANDS` (``python -m pdw_casadi.cli foo ...`` then works too).
+Adding a command: write ``foo_main(argv=None)`` that builds a :class:`Parser` with
+``parents=[common_parser()]``, validates in a ``body()`` before ``outputs.create()`` and
+returns ``run(outputs, body)``; add it to :data:`COMMANDS` (``python -m pdw_casadi.cli foo
+...`` then works too).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NoReturn
 
 import numpy as np
 
-from .fit.objective import CurveError
-from .gait_data import GaitDataError
-from .problem import Problem, ProblemError, load_overrides, load_problem
+from .cli_contract import (
+    USER_ERRORS,
+    NoGait,
+    Outputs,
+    Parser,
+    UsageError,
+    check_input_file,
+    check_output_file,
+    connect_scheduler,
+    fail,
+    finite_float,
+    int_range,
+    open_interval,
+    run,
+    user_errors,
+)
+from .problem import Problem, ProblemError, check_bounds, load_overrides, load_problem
 
-#: exceptions that are the user's input, reported as ``error: ...`` with exit code 2
-USER_ERRORS = (ProblemError, GaitDataError, CurveError, OSError)
+__all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
+           "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]
+
+#: the largest --steps of pdw-simulate (every step's trajectory is kept and written)
+MAX_STEPS = 1000
+#: the most trajectory samples pdw-simulate keeps in memory (about 0.4 kB each)
+MAX_SAMPLES = 1_000_000
+#: accepted |P(x) - x| tolerances of the fixed points (below: rounding noise of one step)
+TOL_RANGE = (1e-14, 1e-3)
 
 
 # --------------------------------------------------------------------------------------------
@@ -44,20 +67,7 @@ USER_ERRORS = (ProblemError, GaitDataError, CurveError, OSError)
 # --------------------------------------------------------------------------------------------
 def _fail(message: object, code: int = 2) -> NoReturn:
     """Print ``error: <message>`` (one line) to stderr and exit with ``code``."""
-    text = " ".join(str(message).split()) or "unknown error"
-    print(f"error: {text}", file=sys.stderr)
-    raise SystemExit(code)
-
-
-@contextlib.contextmanager
-def _errors() -> Iterator[None]:
-    """Turn the expected user errors raised inside the block into :func:`_fail`."""
-    try:
-        yield
-    except USER_ERRORS as exc:
-        if isinstance(exc, OSError) and exc.filename is not None:
-            _fail(f"{exc.filename}: {exc.strerror or exc}")
-        _fail(exc)
+    fail(message, code)
 
 
 def _jsonable(obj):
@@ -101,7 +111,8 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
                    help="JSON/TOML table of section-state overrides (rad, rad/s), e.g. "
                         "{\"q1\": 0.25}; a summary.json of this toolkit also works")
     g.add_argument("--compliance", type=Path, metavar="FILE",
-                   help="JSON/TOML table of compliance overrides, e.g. {\"k_knee\": 120}")
+                   help="JSON/TOML table of compliance overrides, e.g. {\"k_knee\": 120}; "
+                        "the problem's compliance_bounds apply")
     g.add_argument("--out", type=Path, required=out_default is None, metavar="DIR",
                    default=None if out_default is None else Path(out_default),
                    help="output directory (created if missing)"
@@ -109,26 +120,43 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     return parent
 
 
+#: the block's expected user errors become one ``error:`` line and exit code 2
+_errors = user_errors
+
+
 def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
-    return v
+    return int_range("value", 1)(text)
+
+
+def _tol(flag: str = "--tol") -> Callable[[str], float]:
+    lo, hi = TOL_RANGE
+
+    def parse(text: str) -> float:
+        v = finite_float(flag)(text)
+        if not lo <= v <= hi:
+            raise argparse.ArgumentTypeError(f"{flag} must lie in [{lo:g}, {hi:g}], "
+                                             f"got {text!r}")
+        return v
+    parse.__name__ = "tolerance"
+    return parse
 
 
 def load_cli_problem(args: argparse.Namespace) -> Problem:
-    """The problem named by ``--problem`` with ``--compliance`` and ``--state`` applied."""
+    """The problem named by ``--problem`` with ``--compliance`` and ``--state`` applied.
+
+    Compliance overrides must lie within the problem's ``compliance_bounds`` (the same
+    limits the problem file's own values obey)."""
     problem = load_problem(args.problem)
     comp_file = getattr(args, "compliance", None)
     if comp_file is not None:
         values = load_overrides(comp_file, "compliance")
         try:
             problem = problem.replace(compliance=values)
+            check_bounds(problem, values, comp_file)
         except ProblemError as exc:  # name the override file, not only the problem
-            raise ProblemError(f"{comp_file}: {exc}") from None
+            text = str(exc)
+            raise ProblemError(text if text.startswith(str(comp_file))
+                               else f"{comp_file}: {text}") from None
     state_file = getattr(args, "state", None)
     if state_file is not None:
         values = load_overrides(state_file, "state")
@@ -139,9 +167,23 @@ def load_cli_problem(args: argparse.Namespace) -> Problem:
     return problem
 
 
-def _out_dir(path: Path) -> Path:
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+def _gait_file(source: str, flag: str = "--gait"):
+    from .gait_data import load_gait_curves
+
+    return load_gait_curves(source)
+
+
+def _check_curve_walker(problem: Problem, what: str):
+    """The walker's faces; a clear error when it has no knee and hip outputs."""
+    from .faces import walker_faces
+
+    faces = walker_faces(problem)
+    if not faces.has_gait_curves:
+        missing = [j for j in ("knee", "hip") if j not in faces.joints]
+        raise UsageError(f"{what} needs knee and hip curves, but {problem.name} "
+                         f"({problem.family}) has no {' or '.join(missing)} "
+                         f"(joints: {', '.join(faces.joints) or 'none'})")
+    return faces
 
 
 # --------------------------------------------------------------------------------------------
@@ -189,64 +231,97 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
     }
 
 
+def _divergence(result) -> str | None:
+    f = result.failure
+    if f is not None and f.reason == "numerical_divergence":
+        return (f"numerical divergence in step {f.step}, phase {f.phase}, at t = "
+                f"{f.time:.4f} s: {f.detail}")
+    return None
+
+
 def simulate_main(argv: Sequence[str] | None = None) -> int:
     """``pdw-simulate``: simulate N steps and write trajectory, events, summary and plots.
 
-    Writes to ``--out``: ``trajectory.csv`` (one row per integration step: time, phase,
-    coordinates, velocities and outputs), ``events.csv`` (guards, mode switches, failure),
-    ``summary.json`` (phases, step time/length, speed, Poincare states, residual
+    Writes to ``--out``: ``trajectory.csv`` (one row per integration step: time, step,
+    phase, coordinates, velocities and outputs), ``events.csv`` (guards, mode switches,
+    failure), ``summary.json`` (phases, step time/length, speed, Poincare states, residual
     ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
     ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
     walker over all steps (:mod:`pdw_casadi.animation`). A walker that falls is a result, not
     an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
-    code 0.
+    code 0. A numerical divergence (non-finite or absurd states, a broken energy balance:
+    the step size is too large for the walker's stiffness) is not a fall: the outputs are
+    written and the exit code is 1. Long runs show a progress bar on stderr.
     """
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pdw-simulate", parents=[common_parser()],
         description="Simulate steps of a passive walker from its section state.")
-    parser.add_argument("--steps", type=_positive_int, default=1, metavar="N",
-                        help="number of steps (default: %(default)s)")
-    parser.add_argument("--snapshots", type=_positive_int, default=8, metavar="K",
-                        help="stick-figure snapshots of the first step (default: %(default)s)")
+    parser.add_argument("--steps", type=int_range("--steps", 1, MAX_STEPS), default=1,
+                        metavar="N", help=f"number of steps, 1..{MAX_STEPS} "
+                                          "(default: %(default)s)")
+    parser.add_argument("--snapshots", type=int_range("--snapshots", 2, 100), default=8,
+                        metavar="K",
+                        help="stick-figure snapshots of the first step, 2..100 "
+                             "(default: %(default)s)")
     parser.add_argument("--animate", type=Path, metavar="FILE.gif",
                         help="also write an animated GIF of the walker walking down the slope "
                              "over all simulated steps")
-    parser.add_argument("--fps", type=_positive_int, default=25, metavar="F",
-                        help="frames per simulated second of the animation (default: "
+    parser.add_argument("--fps", type=int_range("--fps", 1, 100), default=25, metavar="F",
+                        help="frames per simulated second of the animation, 1..100 (default: "
                              "%(default)s)")
     args = parser.parse_args(argv)
-    with _errors():
+    outputs = Outputs(args.out)
+
+    def body() -> int:
         problem = load_cli_problem(args)
-        out = _out_dir(args.out)
+        outputs.check()
+        if args.animate is not None:
+            check_output_file(args.animate, "--animate", (".gif",))
+        from tqdm import tqdm
+
+        from .faces import walker_faces
         from .plots import plot_angles, plot_stick
         from .simulate import Simulator
 
         sim = Simulator(problem)
+        faces = walker_faces(problem, sim.hs)
         p = problem.parameter_vector()
-        result = sim.run(problem.state_vector(), p, steps=args.steps, record=True)
+        out = outputs.create()
+        with tqdm(total=args.steps, unit="step", desc="pdw-simulate", file=sys.stderr,
+                  disable=args.steps < 10) as bar:
+            result = sim.run(problem.state_vector(), p, steps=args.steps, record=True,
+                             progress=lambda k: bar.update(k - bar.n),
+                             max_samples=MAX_SAMPLES)
         traj = result.trajectory
         if traj is None:
             import pandas as pd
 
             traj = pd.DataFrame()
-        traj.to_csv(out / "trajectory.csv", index=False)
-        result.events.to_csv(out / "events.csv", index=False)
+        traj.to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
+        result.events.to_csv(outputs.wrote(out / "events.csv"), index=False)
         summary = simulation_summary(problem, result, args.steps)
-        _write_json(out / "summary.json", summary)
-        plot_angles(traj, out / "angles.png", title=f"{problem.name}: joint angles")
-        plot_stick(sim.hs, traj, p, out / "stick.png", n=args.snapshots)
+        _write_json(outputs.wrote(out / "summary.json"), summary)
+        plot_angles(traj, outputs.wrote(out / "angles.png"),
+                    title=f"{problem.name}: joint angles", faces=faces)
+        plot_stick(sim.hs, traj, p, outputs.wrote(out / "stick.png"), n=args.snapshots)
         if args.animate is not None and not traj.empty:
             from .animation import animate_walk
 
-            animate_walk(sim.hs, result, p, args.animate, fps=args.fps,
+            animate_walk(sim.hs, result, p, outputs.wrote(args.animate), fps=args.fps,
                          title=f"{problem.name}: {result.completed_steps} steps down a slope "
                                f"of {problem.slope:.4f} rad")
-    if result.failure is not None:
-        f = result.failure
-        print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
-              f"t = {f.time:.4f} s: {f.reason}", file=sys.stderr)
-    print(f"wrote {out} ({summary['completed_steps']} of {args.steps} steps)")
-    return 0
+        print(f"wrote {out} ({summary['completed_steps']} of {args.steps} steps)")
+        diverged = _divergence(result)
+        if diverged:
+            raise NoGait(diverged)
+        if result.failure is not None:
+            f = result.failure
+            print(f"warning: simulation stopped in step {f.step}, phase {f.phase}, at "
+                  f"t = {f.time:.4f} s: {f.reason}"
+                  + (f" ({f.detail})" if f.reason == "sample_limit" else ""), file=sys.stderr)
+        return 0
+
+    return run(outputs, body)
 
 
 def fixed_point_main(argv: Sequence[str] | None = None) -> int:
@@ -254,47 +329,62 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
     Writes ``summary.json`` (fixed_point, residual, iterations, eigenvalues as [re, im],
     spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
-    failure, distance_from_initial, wall_time_s) and ``limit_cycle.png`` (paper's Fig. 4).
+    failure, distance_from_initial; identical for identical runs) and ``limit_cycle.png``
+    (paper's Fig. 4); the wall time goes to stdout only. Exit code 1 when Newton (and its
+    IPOPT fallback) found no fixed point.
     """
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pdw-fixed-point", parents=[common_parser()],
         description="Newton on the Poincare map with its exact AD Jacobian.")
-    parser.add_argument("--tol", type=float, default=1e-10,
-                        help="|P(x) - x| to reach (default: %(default)s)")
+    parser.add_argument("--tol", type=_tol(), default=1e-10,
+                        help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
+                             "(default: %(default)s)")
     args = parser.parse_args(argv)
-    with _errors():
-        import numpy as np
+    outputs = Outputs(args.out)
 
+    def body() -> int:
+        problem = load_cli_problem(args)
+        outputs.check()
+        from .faces import walker_faces
         from .fixed_point import find_fixed_point
         from .plots import plot_limit_cycle
         from .simulate import Simulator
 
-        problem = load_cli_problem(args)
-        out = _out_dir(args.out)
+        faces = walker_faces(problem)
+        out = outputs.create()
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
         res = find_fixed_point(problem, tol=args.tol, verbose=True)
         summary = res.to_dict()
+        wall = summary.pop("wall_time_s", None)  # timings are not part of the result
         summary["distance_from_initial"] = float(
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
-        _write_json(out / "summary.json", summary)
+        _write_json(outputs.wrote(out / "summary.json"), summary)
         if res.converged:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)
-            legs = getattr(sim.hs.model, "limit_cycle_legs", None) or (("q1", "q2"),
-                                                                         ("q4", "q3"))
-            plot_limit_cycle(two.trajectory, out / "limit_cycle.png", legs=legs,
+            plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
+                             faces=faces,
                              title=f"{problem.name}: limit cycle of one leg over two steps")
-    ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
-    print(f"converged={res.converged} residual={res.residual:.2e} iterations={res.iterations} "
-          f"spectral radius={res.spectral_radius:.4f} "
-          f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
-          f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
-    print(f"eigenvalues: {ev}")
-    print(f"wrote {out}")
-    return 0 if res.converged else 1
+        ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
+        print(f"converged={res.converged} residual={res.residual:.2e} "
+              f"iterations={res.iterations} spectral radius={res.spectral_radius:.4f} "
+              f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
+              f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
+        print(f"eigenvalues: {ev}")
+        print(f"wrote {out}" + (f" ({wall:.2f} s)" if wall is not None else ""))
+        if not res.converged:
+            why = (f"|P(x) - x| = {res.residual:.3g} > {args.tol:g}"
+                   f"{', ' + str(res.failure) if res.failure else ''}"
+                   if math.isfinite(res.residual) else
+                   f"the walker fails in the first step from it: {res.failure}")
+            raise NoGait(f"no fixed point of {problem.name} near its initial state ({why}); "
+                         f"the summary is in {out / 'summary.json'}")
+        return 0
+
+    return run(outputs, body)
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:
@@ -302,16 +392,19 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
 
     One multiple-shooting IPOPT NLP per start (see :mod:`pdw_casadi.fit`), verified by a
     20-step re-simulation and the exact-AD spectral radius. Writes ``summary.json``,
-    ``curves.csv``, ``fit.png`` (Fig. 5 with the Table-3 walker and the comparison walker),
-    ``limit_cycle.png`` (Fig. 4) and ``table.md``. Exit code 1 when no stable valid gait was
-    found (the outputs then describe the best candidate and say so).
+    ``curves.csv``, ``fit.png`` (Fig. 5 with the problem's own compliance and, for a walker
+    that has one, its comparison walker), ``limit_cycle.png`` (Fig. 4) and ``table.md``.
+    Exit code 1 when no stable valid gait was found (the outputs then describe the best
+    candidate and say so). The walker needs knee and hip outputs and something to fit
+    (compliance values, or ``--free-slope``).
     """
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pdw-fit", parents=[common_parser(out_default="fit")],
         description="Fit compliance and a stable periodic gait to human knee/hip curves.")
     parser.add_argument("--gait", required=True, metavar="FILE",
                         help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
-    parser.add_argument("--multistart", type=_positive_int, default=1, metavar="N",
+    parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000), default=1,
+                        metavar="N",
                         help="start from the N gait-atlas entries whose curves fit best "
                              "(default: %(default)s)")
     parser.add_argument("--atlas", metavar="FILE",
@@ -322,14 +415,16 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
                         help="hip curve in the objective: the paper's hip (thigh + slope) "
                              "or the thigh from the vertical (default: %(default)s)")
-    parser.add_argument("--max-radius", type=float, default=0.91, metavar="R",
-                        help="largest accepted spectral radius (default: %(default)s)")
-    parser.add_argument("--max-iter", type=_positive_int, default=300,
+    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
+                        default=0.91, metavar="R",
+                        help="largest accepted spectral radius, in (0, 1) "
+                             "(default: %(default)s)")
+    parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=300,
                         help="IPOPT iterations per solve (default: %(default)s)")
-    parser.add_argument("--rounds", type=_positive_int, default=2,
+    parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
                         help="NLP solves per start: a further one is built at the answer only "
                              "when the objective's sample brackets moved (default: %(default)s)")
-    parser.add_argument("--workers", type=_positive_int, default=1,
+    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
                         help="processes for the multistart (default: 1)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler for the multistart (e.g. tcp://host:8786)")
@@ -337,18 +432,27 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
     args = parser.parse_args(argv)
-    with _errors():
+    outputs = Outputs(args.out)
+
+    def body() -> int:
+        human = _gait_file(args.gait)
+        problem = load_cli_problem(args)
+        if args.hip_target == "thigh" and human.thigh_deg is None:
+            raise UsageError(f"--hip-target thigh needs a thigh column in the gait file "
+                             f"{human.source} (it has none); use --hip-target hip")
+        _check_curve_walker(problem, "pdw-fit")
+        if not problem.compliance and not args.free_slope:
+            raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
+                             f"to fit; add --free-slope to fit the slope")
+        outputs.check()
         from .fit import FitOptions
         from .fit_report import fit_and_report
-        from .gait_data import load_gait_curves
 
-        human = load_gait_curves(args.gait)
-        problem = load_cli_problem(args)
-        if not 0 < args.max_radius < 1:
-            _fail(f"--max-radius must be in (0, 1), got {args.max_radius}")
         atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
-        if atlas and not Path(atlas).is_file():
-            _fail(f"--atlas {atlas}: no such file")
+        if atlas:
+            check_input_file(Path(atlas), "--atlas")
+        if args.scheduler is not None:
+            connect_scheduler(args.scheduler)  # the address answers before anything is written
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                           max_radius=args.max_radius, multistart=args.multistart,
                           atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
@@ -356,41 +460,68 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         from .fit import check_targets
 
         check_targets(problem, human, opts)
-        out = _out_dir(args.out)
+        out = outputs.create()
+        outputs.notes.append(f"the report files are written only at the end, into {out}")
         log_file = out / "ipopt.log"
         log_file.unlink(missing_ok=True)
         opts.log_file = str(log_file)
         summary = fit_and_report(problem, human, opts, out, workers=args.workers,
                                  scheduler=args.scheduler,
                                  log=lambda m: print(m, file=sys.stderr, flush=True))
-    print(summary["headline"])
-    print(f"wrote {out}")
-    return 0 if summary["stable"] and summary["valid"] else 1
+        for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
+                     "ipopt.log"):
+            outputs.wrote(out / name)
+        print(summary["headline"])
+        print(f"wrote {out}")
+        if not (summary["stable"] and summary["valid"]):
+            raise NoGait(f"no stable valid gait: {summary['headline']}")
+        return 0
+
+    return run(outputs, body)
 
 
 def load_fit_start(problem: Problem, path: Path) -> Problem:
     """``problem`` with compliance, slope and section state taken from a fit summary.
 
     The summary (JSON) holds ``compliance`` (problem compliance names -> values), ``slope``
-    (rad) and ``fixed_point`` (section-state names -> values, rad and rad/s).
+    (rad) and ``fixed_point`` (section-state names -> values, rad and rad/s). The
+    compliance obeys the problem's ``compliance_bounds``.
     """
+    path = check_input_file(path, "--from-fit")
     try:
         raw = json.loads(Path(path).read_text())
+    except UnicodeDecodeError:
+        raise ProblemError(f"{path}: not a fit summary (not UTF-8 text)") from None
     except ValueError as exc:
         raise ProblemError(f"{path}: not valid JSON: {exc}") from None
-    missing = [k for k in ("compliance", "slope", "fixed_point") if k not in (raw or {})]
-    if not isinstance(raw, dict) or missing:
+    if not isinstance(raw, dict):
+        kind = {list: "a list", str: "a string", bool: "a boolean", type(None): "null",
+                int: "a number", float: "a number"}.get(type(raw), type(raw).__name__)
+        raise ProblemError(f"{path}: a fit summary must be a JSON object with the keys "
+                           f"compliance, slope and fixed_point; got {kind}")
+    missing = [k for k in ("compliance", "slope", "fixed_point") if k not in raw]
+    if missing:
         raise ProblemError(f"{path}: a fit summary needs the keys compliance, slope and "
                            f"fixed_point; missing: {', '.join(missing)}")
     if not isinstance(raw["compliance"], dict) or not isinstance(raw["fixed_point"], dict):
         raise ProblemError(f"{path}: 'compliance' and 'fixed_point' must be tables")
-    if isinstance(raw["slope"], bool) or not isinstance(raw["slope"], int | float):
-        raise ProblemError(f"{path}: 'slope' must be a number (rad), got {raw['slope']!r}")
+    if isinstance(raw["slope"], bool) or not isinstance(raw["slope"], int | float) \
+            or not math.isfinite(raw["slope"]):
+        raise ProblemError(f"{path}: 'slope' must be a finite number (rad), got "
+                           f"{raw['slope']!r}")
+    for table in ("compliance", "fixed_point"):
+        for k, v in raw[table].items():
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise ProblemError(f"{path}: '{table}.{k}' must be a finite number, got "
+                                   f"{v!r}")
     try:
-        return problem.replace(compliance=raw["compliance"], slope=float(raw["slope"])) \
+        new = problem.replace(compliance=raw["compliance"], slope=float(raw["slope"])) \
             .with_state(raw["fixed_point"])
+        check_bounds(new, raw["compliance"], path)
+        return new
     except ProblemError as exc:
-        raise ProblemError(f"{path}: {exc}") from None
+        text = str(exc)
+        raise ProblemError(text if text.startswith(str(path)) else f"{path}: {text}") from None
 
 
 def sweep_main(argv: Sequence[str] | None = None) -> int:
@@ -398,26 +529,30 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
 
     Starts from the fixed point of the problem (its initial state; or ``--from-fit``), covers
     ``--num`` values from ``--from`` to ``--to`` of ``--param`` (the slope in rad, or a
-    compliance name in its unit) and writes to ``--out``: ``sweep.csv`` (one row per point,
-    appended as each is found: parameter, section state, step time, step length, speed,
-    spectral radius, eigenvalues, margins, stable, valid, R^2 with ``--gait``),
-    ``events.json`` (located bifurcations and gait-pattern boundaries, stable valid ranges)
-    and ``sweep.png`` (step length, speed and spectral radius against the parameter).
+    compliance name in its unit, within the problem's compliance_bounds) and writes to
+    ``--out``: ``sweep.csv`` (one row per point: parameter, section state, step time, step
+    length, speed, spectral radius, eigenvalues, margins, stable, valid, R^2 with
+    ``--gait``), ``events.json`` (located bifurcations and gait-pattern boundaries, stable
+    valid ranges) and ``sweep.png`` (step length, speed and spectral radius against the
+    parameter). Rows are appended to ``sweep.partial.csv`` as each is found, which becomes
+    ``sweep.csv`` when the sweep completes: an interrupted or failed run leaves the
+    ``sweep.csv`` of an earlier run untouched and its own rows in ``sweep.partial.csv``.
     ``--workers K`` spreads independent work (grid points, the two directions from an
-    interior start) over K processes; ``--scheduler ADDRESS`` over a Dask cluster.
+    interior start) over K processes; ``--scheduler ADDRESS`` over a Dask cluster (checked
+    to answer before anything is written). Exit code 1 when the start has no gait.
     """
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="pdw-sweep", parents=[common_parser()],
         description="Parameter sweep of a periodic gait by continuation, with bifurcations.")
     parser.add_argument("--param", default="slope", metavar="NAME",
                         help="parameter to sweep: slope (rad) or a compliance name "
                              "(default: %(default)s)")
-    parser.add_argument("--from", dest="start", type=float, required=True, metavar="A",
-                        help="first value of the grid (unit of the parameter)")
-    parser.add_argument("--to", dest="stop", type=float, required=True, metavar="B",
-                        help="last value of the grid")
-    parser.add_argument("--num", type=_positive_int, default=25, metavar="N",
-                        help="grid values from A to B, >= 2 (default: %(default)s)")
+    parser.add_argument("--from", dest="start", type=finite_float("--from"), required=True,
+                        metavar="A", help="first value of the grid (unit of the parameter)")
+    parser.add_argument("--to", dest="stop", type=finite_float("--to"), required=True,
+                        metavar="B", help="last value of the grid")
+    parser.add_argument("--num", type=int_range("--num", 2, 10000), default=25, metavar="N",
+                        help="grid values from A to B, 2..10000 (default: %(default)s)")
     parser.add_argument("--mode", choices=("continuation", "grid"), default="continuation",
                         help="continuation from the start, or every grid value solved on its "
                              "own from the start (default: %(default)s)")
@@ -430,49 +565,67 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--refit", action="store_true",
                         help="refit the compliance to --gait at every point (a full pdw-fit "
                              "per point, warm-started from the neighbour; slow)")
-    parser.add_argument("--workers", type=_positive_int, default=1, metavar="K",
-                        help="processes for independent work (default: %(default)s)")
+    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
+                        metavar="K", help="processes for independent work (default: "
+                                          "%(default)s)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler address (e.g. tcp://host:8786); overrides "
                              "--workers")
-    parser.add_argument("--tol", type=float, default=1e-10,
-                        help="|P(x) - x| of every fixed point (default: %(default)s)")
+    parser.add_argument("--tol", type=_tol(), default=1e-10,
+                        help=f"|P(x) - x| of every fixed point, in [{TOL_RANGE[0]:g}, "
+                             f"{TOL_RANGE[1]:g}] (default: %(default)s)")
     args = parser.parse_args(argv)
-    with _errors():
-        import numpy as np
+    outputs = Outputs(args.out)
+
+    def body() -> int:
         import pandas as pd
-        from tqdm import tqdm
 
         from .continuation import parameter_index
-        from .plots import plot_sweep
-        from .sweep import SweepSettings, sweep
+        from .sweep import NoStartGait
 
-        if args.num < 2:
-            raise ProblemError(f"--num must be >= 2, got {args.num}")
         if args.start == args.stop:
-            raise ProblemError(f"--from and --to must differ, got {args.start} twice")
-        if args.scheduler is not None:
-            try:
-                import distributed  # noqa: F401
-            except ImportError:
-                raise ProblemError("--scheduler needs dask.distributed: "
-                                   "pip install 'pdw-casadi[dask]'") from None
+            raise UsageError(f"--from and --to must differ, got {args.start:g} twice")
+        if args.refit:
+            if args.gait is None:
+                raise UsageError("--refit needs --gait FILE (the curves to refit to)")
+            if args.param != "slope":
+                raise UsageError("--refit sweeps the slope (the compliance is refitted)")
         problem = load_cli_problem(args)
         if args.from_fit is not None:
             problem = load_fit_start(problem, args.from_fit)
-        if args.gait is not None:
-            from .gait_data import load_gait_curves
-            from .system import hybrid_system
-
-            load_gait_curves(args.gait)  # a bad file is a user error now, not mid-sweep
-            if "III" not in hybrid_system(problem).phase_names:
-                raise ProblemError(f"--gait needs a walker with a heel-strike phase III; "
-                                   f"{problem.name} ({problem.family}) has none")
         parameter_index(problem, args.param)  # an unknown name fails before any work
-        out = _out_dir(args.out)
-        csv_path = out / "sweep.csv"
-        csv_path.unlink(missing_ok=True)
+        for flag, v in (("--from", args.start), ("--to", args.stop)):
+            check_bounds(problem, {args.param: v}, f"{flag} {v:g}")
+        human = None
+        if args.gait is not None:
+            human = _gait_file(args.gait)  # a bad file is a user error now, not mid-sweep
+            _check_curve_walker(problem, "--gait")
+        outputs.check()
+        if args.scheduler is not None:
+            connect_scheduler(args.scheduler)  # the address answers before anything is written
+        from tqdm import tqdm
+
+        from .plots import plot_sweep
+        from .sweep import SweepSettings, sweep
+
+        corrector = None
+        if args.refit:
+            from .fit import FitOptions, RefitCorrector
+
+            corrector = RefitCorrector(problem, human, FitOptions(verbose=False))
+        out = outputs.create()
+        csv_path, partial = out / "sweep.csv", out / "sweep.partial.csv"
+        partial.unlink(missing_ok=True)  # a previous interrupted run's rows
         columns: list[str] = []
+        found = [0]
+
+        def note() -> None:
+            rows = (f"{found[0]} rows found so far are in {partial}" if found[0]
+                    else "no sweep rows found yet")
+            outputs.notes[:] = [rows + (f" ({csv_path} of an earlier run untouched)"
+                                        if csv_path.exists() else "")]
+
+        note()
 
         def append(row: dict) -> None:
             # the first row (the start, a converged gait) fixes the columns; later rows that
@@ -480,49 +633,51 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             if not columns:
                 columns.extend(row)
             frame = pd.DataFrame([row]).reindex(columns=columns)
-            frame.to_csv(csv_path, mode="a", header=not csv_path.exists(), index=False)
+            frame.to_csv(partial, mode="a", header=not partial.exists(), index=False)
+            found[0] += 1
+            note()
 
         grid = np.linspace(args.start, args.stop, args.num)
-        print(f"sweeping {args.param} of {problem.name} from {args.start} to {args.stop} "
+        print(f"sweeping {args.param} of {problem.name} from {args.start:g} to {args.stop:g} "
               f"({args.num} values, {args.mode})...", file=sys.stderr)
-        corrector = None
-        if args.refit:
-            if args.gait is None:
-                raise ProblemError("--refit needs --gait FILE (the curves to refit to)")
-            if args.param != "slope":
-                raise ProblemError("--refit sweeps the slope (the compliance is refitted)")
-            from .fit import FitOptions, RefitCorrector
-            from .gait_data import load_gait_curves
-
-            corrector = RefitCorrector(problem, load_gait_curves(args.gait),
-                                       FitOptions(verbose=False))
-        with tqdm(total=args.num, unit="pt", desc="pdw-sweep", file=sys.stderr) as bar:
-            res = sweep(problem, grid, parameter=args.param, mode=args.mode,
-                        corrector=corrector, workers=args.workers,
-                        scheduler=args.scheduler, gait=args.gait,
-                        settings=SweepSettings(tol=args.tol, predictor=args.predictor),
-                        on_row=append, progress=bar.update)
+        try:
+            with tqdm(total=args.num, unit="pt", desc="pdw-sweep", file=sys.stderr) as bar:
+                res = sweep(problem, grid, parameter=args.param, mode=args.mode,
+                            corrector=corrector, workers=args.workers,
+                            scheduler=args.scheduler, gait=args.gait,
+                            settings=SweepSettings(tol=args.tol, predictor=args.predictor),
+                            on_row=append, progress=bar.update)
+        except NoStartGait as exc:
+            partial.unlink(missing_ok=True)
+            raise NoGait(str(exc)) from None
+        partial.replace(csv_path)
+        outputs.notes.clear()
+        outputs.wrote(csv_path)
         summary = {**res.to_dict(), "problem": problem.name,
                    "compliance": dict(problem.compliance), "slope": problem.slope,
                    "units": {"slope": "rad", "time": "s", "length": "m", "speed": "m/s"}}
-        _write_json(out / "events.json", summary)
-        plot_sweep(res.table, res.events, args.param, out / "sweep.png",
+        _write_json(outputs.wrote(out / "events.json"), summary)
+        plot_sweep(res.table, res.events, args.param, outputs.wrote(out / "sweep.png"),
                    title=f"{problem.name}: sweep over {args.param}")
-    table = res.table
-    print(f"{len(table)} points ({int(table['converged'].sum())} converged, "
-          f"{int((table['stable'] & table['valid']).sum())} stable and valid)")
-    for e in res.events:
-        print(f"  {e.kind:16s} {args.param} = {e.value:.8g}  (bracket {min(e.bracket):.8g} .. "
-              f"{max(e.bracket):.8g}): {e.reason}")
-    ranges = res.stable_ranges()
-    if ranges:
-        for r in ranges:
-            print(f"stable valid gait: {args.param} in [{r['from']:.8g}, {r['to']:.8g}] "
-                  f"(ends: {r['from_event'] or 'last point'}, {r['to_event'] or 'last point'})")
-    else:
-        print(f"no stable valid gait found over {args.param} = {args.start} .. {args.stop}")
-    print(f"wrote {out}")
-    return 0
+        table = res.table
+        print(f"{len(table)} points ({int(table['converged'].sum())} converged, "
+              f"{int((table['stable'] & table['valid']).sum())} stable and valid)")
+        for e in res.events:
+            print(f"  {e.kind:16s} {args.param} = {e.value:.8g}  (bracket "
+                  f"{min(e.bracket):.8g} .. {max(e.bracket):.8g}): {e.reason}")
+        ranges = res.stable_ranges()
+        if ranges:
+            for r in ranges:
+                print(f"stable valid gait: {args.param} in [{r['from']:.8g}, {r['to']:.8g}] "
+                      f"(ends: {r['from_event'] or 'last point'}, "
+                      f"{r['to_event'] or 'last point'})")
+        else:
+            print(f"no stable valid gait found over {args.param} = {args.start:g} .. "
+                  f"{args.stop:g}")
+        print(f"wrote {out}")
+        return 0
+
+    return run(outputs, body)
 
 
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)

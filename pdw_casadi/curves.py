@@ -1,4 +1,4 @@
-"""Gait-cycle curves of a walker and their goodness of fit to human data (MODEL.md).
+"""Gait-cycle curves of a walker and their goodness of fit to human data (docs/model.md).
 
 A gait cycle runs from a heel strike of one leg to its next heel strike (two steps). At a
 symmetric fixed point it is assembled from one recorded step: leg 2 from its heel strike to
@@ -25,13 +25,14 @@ def r_squared(model, human) -> float:
     return 1.0 - ss_res / ss_tot
 
 
-def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None = "III",
+def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
                n: int = 101) -> pd.DataFrame:
     """Model curves over one gait cycle (deg) from one recorded step at a fixed point.
 
     ``step``: the trajectory rows of one step (columns t, phase, knee1_deg, knee2_deg,
     hip1_deg, hip2_deg, thigh1_deg, thigh2_deg). ``heel_strike_phase``: the phase that
-    begins at the swing leg's heel strike; None when the step itself begins at leg 1's heel
+    begins at the swing leg's heel strike, from the walker model
+    (``WalkerModel.heel_strike_phase``); None when the step itself begins at leg 1's heel
     strike (point feet): the cycle is then leg 1 over the step, then leg 2 over the step.
     Returns cycle_pct, knee_deg, hip_deg, thigh_deg.
     """
@@ -43,7 +44,11 @@ def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None = "III",
         parts.append((t, step, 1))
         parts.append((T + t, step, 2))
     else:
-        i_hs = int(np.flatnonzero(ph == heel_strike_phase)[0])
+        hits = np.flatnonzero(ph == heel_strike_phase)
+        if hits.size == 0:
+            raise ValueError(f"gait_cycle: the step has no phase {heel_strike_phase!r} (the "
+                             f"heel-strike phase); its phases: {', '.join(dict.fromkeys(ph))}")
+        i_hs = int(hits[0])
         t_hs = t[i_hs]
         a = slice(i_hs, None)
         parts.append((t[a] - t_hs, step.iloc[a], 2))

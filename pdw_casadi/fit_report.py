@@ -1,9 +1,11 @@
 """Run a fit and write its report: summary.json, curves.csv, fit.png, limit_cycle.png, table.md.
 
-Beside the fit, two references are computed with the same curve code on the same data: the
-paper's own compliance (the problem file's, Table 3) re-run on this walker, and the paper's
-comparison walker [48] (point feet, knees locked in stance) with this anthropometry
-(``problems/comparison_kneed_6link.toml``).
+Beside the fit, references are computed with the same curve code on the same data: the
+problem file's own compliance (for the 6-link walker the paper's Table 3) re-run on this
+walker, and, when the walker's family names one (``COMPARISON_PROBLEM``, see
+:mod:`pdw_casadi.faces`), its comparison walker: for the 6-link walker the paper's [48]
+(point feet, knees locked in stance) with this anthropometry
+(``problems/comparison_kneed_6link.toml``). Other walkers have no comparison row.
 """
 
 from __future__ import annotations
@@ -14,14 +16,12 @@ import numpy as np
 import pandas as pd
 
 from .curves import fit_scores, gait_cycle
+from .faces import walker_faces
 from .fit import Candidate, FitOptions, FitResult, check_targets, fit_gait, mean_score
 from .fixed_point import find_fixed_point
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
 from .simulate import Simulator
-
-PAPER_REPORTED = {"r2_knee": 0.891, "r2_hip": 0.899}
-COMPARISON_PROBLEM = "comparison_kneed_6link"
 
 
 def reference_gait(problem, human) -> dict:
@@ -77,10 +77,15 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
     """Fit, compare with the references, write the report files into ``out``; the summary."""
     out = Path(out)
     check_targets(problem, human, opts)  # before the reference solves
-    log("reference: the problem's own compliance (Table 3) on the same data")
+    log("reference: the problem's own compliance on the same data")
     table3 = reference_gait(problem, human)
-    log("reference: the comparison walker (point feet, locked stance knee)")
-    comparison = reference_gait(load_problem(COMPARISON_PROBLEM), human)
+    faces = walker_faces(problem)
+    comparison_name = faces.comparison_problem
+    paper = dict(faces.paper_reported) if faces.paper_reported else None
+    comparison = None
+    if comparison_name is not None:
+        log(f"reference: the comparison walker {comparison_name}")
+        comparison = reference_gait(load_problem(comparison_name), human)
     res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
     cand, ok = _pick(res)
     h = human.resample(101)
@@ -90,32 +95,32 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
         curves["human_thigh_deg"] = h.thigh_deg
     models, scores = {}, {}
     for label, d in (("fit", {"curves": cand.curves} if cand else {}),
-                     ("table3", table3), ("comparison", comparison)):
+                     ("table3", table3), ("comparison", comparison or {})):
         c = d.get("curves")
         if c is None:
             continue
         for col in ("knee_deg", "hip_deg", "thigh_deg"):
             curves[f"{label}_{col}"] = c[col].to_numpy()
     curves.to_csv(out / "curves.csv", index=False)
-    names = {"fit": "this fit", "table3": f"{problem.name}, Table 3 compliance",
-             "comparison": "comparison walker (point feet, locked knees)"}
+    names = {"fit": "this fit", "table3": f"{problem.name}, problem file's compliance",
+             "comparison": f"comparison walker ({comparison_name})"}
     if cand is not None:
         models[names["fit"]] = cand.curves
         scores[names["fit"]] = cand.scores
-    for key, d in (("table3", table3), ("comparison", comparison)):
+    for key, d in (("table3", table3), ("comparison", comparison or {})):
         if d.get("curves") is not None:
             models[names[key]] = d["curves"]
             scores[names[key]] = _scores(d)
     plot_fit(h, models, out / "fit.png", scores=scores)
 
     summary: dict = {"gait_file": str(human.source), "problem": problem.name,
-                     "targets": list(res.targets), "paper_reported": PAPER_REPORTED,
+                     "targets": list(res.targets), "paper_reported": paper,
                      "stable": False, "valid": False}
     comp = {"table3": {**_scores(table3), "spectral_radius": table3["spectral_radius"],
                        "stable": table3["stable"], "valid": table3["valid"]},
-            "comparison_walker": {**_scores(comparison),
-                                  "spectral_radius": comparison["spectral_radius"],
-                                  "stable": comparison["stable"], "problem": COMPARISON_PROBLEM}}
+            "comparison_walker": None if comparison is None else {
+                **_scores(comparison), "spectral_radius": comparison["spectral_radius"],
+                "stable": comparison["stable"], "problem": comparison_name}}
     summary["comparison"] = comp
     solver = {"solves": [s.to_dict() for s in res.solves],
               "status": res.solves[-1].status if res.solves else None,
@@ -142,21 +147,23 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             "resimulation_steps": opts.resim_steps, "accepted": ok})
         sim = Simulator(problem)
         two = sim.run(cand.state, cand.parameters, steps=2, record=True)
-        plot_limit_cycle(two.trajectory, out / "limit_cycle.png",
+        plot_limit_cycle(two.trajectory, out / "limit_cycle.png", faces=faces,
                          title=f"{problem.name}, fitted compliance: one leg over two steps")
-    rows = [("paper, reported (its own four subjects)", PAPER_REPORTED),
-            ("Table 3 compliance, re-run here", {**_scores(table3),
-                                                  "spectral_radius": table3["spectral_radius"],
-                                                  "stable": table3["stable"]})]
+    rows = [("paper, reported (its own four subjects)", paper)] if paper else []
+    rows.append(("problem file's compliance, re-run here",
+                 {**_scores(table3), "spectral_radius": table3["spectral_radius"],
+                  "stable": table3["stable"]}))
     if cand is not None:
         rows.append(("this fit", {**cand.scores,
                                   "spectral_radius": cand.fixed_point.spectral_radius,
                                   "stable": cand.fixed_point.stable}))
-    rows.append(("comparison walker (point feet, locked knees)",
-                 {**_scores(comparison), "spectral_radius": comparison["spectral_radius"],
-                  "stable": comparison["stable"]}))
+    if comparison is not None:
+        rows.append((f"comparison walker ({comparison_name})",
+                     {**_scores(comparison), "spectral_radius": comparison["spectral_radius"],
+                      "stable": comparison["stable"]}))
     head = (f"# Fit of {problem.name} to {Path(str(human.source)).name}\n\n"
-            f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, MODEL.md).\n\n")
+            f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, "
+            f"docs/model.md of pdw-casadi).\n\n")
     (out / "table.md").write_text(head + _table(rows))
     if cand is None:
         summary["headline"] = "no fit: " + "; ".join(res.notes or ["every start failed"])
@@ -167,7 +174,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             + (f"  r2_thigh = {cand.scores['r2_thigh']:.3f}" if "r2_thigh" in cand.scores
                else "")
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
-            f"Table 3: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
+            f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
             f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
     from .cli import _write_json
 

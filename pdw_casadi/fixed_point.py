@@ -9,6 +9,10 @@ eigenvalues of dP/dx at the fixed point (asymptotically stable: spectral radius 
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 
@@ -156,6 +160,11 @@ def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int
     it = 0
     try:
         r = P.evaluate(x, p)
+    except PoincareError:
+        # the map is not defined at the start (the walker fails in the first step): there
+        # is nothing for Newton or IPOPT to work from
+        return _finish(problem, P, x, p, False, 0, method, t_start, history)
+    try:
         G = r.x_next - x
         J = r.dx - np.eye(n)
         fresh = True
@@ -205,6 +214,31 @@ def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int
     return _finish(problem, P, x, p, converged, it, method, t_start, history)
 
 
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Discard what is written to stderr (file descriptor 2, so C++ output too) inside the
+    block: a map evaluation that fails inside IPOPT is reported by CasADi as a printed
+    traceback and warning, and IPOPT then backtracks; the outcome is in the result."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no real stderr (e.g. captured)
+        yield
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            with contextlib.redirect_stderr(open(os.devnull, "w")) as devnull:
+                try:
+                    yield
+                finally:
+                    devnull.close()
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+
+
 def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
     """IPOPT least squares min ||P(x) - x||^2 with the exact Jacobian (fallback)."""
     import casadi as ca
@@ -217,7 +251,8 @@ def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
                         "ipopt.hessian_approximation": "limited-memory",
                         "ipopt.tol": tol ** 2, "ipopt.max_iter": 200})
     try:
-        sol = solver(x0=x)
+        with _quiet_stderr():
+            sol = solver(x0=x)
         xn = np.asarray(sol["x"]).ravel()
         return xn, float(np.linalg.norm(P(xn, p) - xn)) < max(tol, 1e-8)
     except (RuntimeError, PoincareError):

@@ -321,7 +321,7 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
             i = int(negative[0])
             raise GaitDataError(
                 f"{where}: column {column!r} is a standard deviation but has the negative value "
-                f"{frame[column].iloc[i]!r} at data row {i + 1}"
+                f"{float(frame[column].iloc[i])!r} at data row {i + 1}"
             )
 
     if len(frame) < MIN_ROWS:
@@ -335,22 +335,23 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
     if np.any(step <= 0.0):
         i = int(np.flatnonzero(step <= 0.0)[0])
         if step[i] == 0.0:
-            problem = f"duplicate value {pct[i]!r} at data rows {i + 1} and {i + 2}"
+            problem = f"duplicate value {float(pct[i])!r} at data rows {i + 1} and {i + 2}"
         else:
             problem = (
-                f"not increasing: {pct[i + 1]!r} at data row {i + 2} follows {pct[i]!r} at "
-                f"data row {i + 1} (rows out of order?)"
+                f"not increasing: {float(pct[i + 1])!r} at data row {i + 2} follows "
+                f"{float(pct[i])!r} at data row {i + 1} (rows out of order?)"
             )
         raise GaitDataError(f"{where}: column 'cycle_pct' must be strictly increasing; {problem}")
     if abs(pct[0]) > CYCLE_TOL:
         raise GaitDataError(
-            f"{where}: column 'cycle_pct' must start at 0 (% of the gait cycle), got {pct[0]!r}"
+            f"{where}: column 'cycle_pct' must start at 0 (% of the gait cycle), "
+            f"got {float(pct[0])!r}"
         )
     if abs(pct[-1] - 100.0) > CYCLE_TOL:
         hint = " (a fraction of the cycle? use percent)" if abs(pct[-1] - 1.0) <= CYCLE_TOL else ""
         raise GaitDataError(
             f"{where}: column 'cycle_pct' must end at 100 (% of the gait cycle), "
-            f"got {pct[-1]!r}{hint}"
+            f"got {float(pct[-1])!r}{hint}"
         )
 
     for column in (c for c in ANGLE_COLUMNS if c in frame.columns):
@@ -388,7 +389,7 @@ def _numeric_column(values: pd.Series, column: str, where: str) -> pd.Series:
     if infinite.any():
         i = int(np.flatnonzero(infinite)[0])
         raise GaitDataError(
-            f"{where}: column {column!r} has the non-finite value {numbers.iloc[i]!r} "
+            f"{where}: column {column!r} has the non-finite value {float(numbers.iloc[i])!r} "
             f"at data row {i + 1}"
         )
     return numbers

@@ -17,9 +17,9 @@ each worker compiles once).
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from typing import TypeVar
 
 T = TypeVar("T")
@@ -52,12 +52,19 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
     if scheduler is not None:
         yield from _dask_map(fn, items, scheduler)
     elif workers > 1 and len(items) > 1:
-        with ProcessPoolExecutor(max_workers=min(workers, len(items)),
-                                 mp_context=_pool_context()) as pool:
-            yield from pool.map(fn, items)
+        # a multiprocessing pool, not concurrent.futures: terminate() stops the workers at
+        # once (Ctrl-C, a failed task, the consumer stopping) without tracebacks; the
+        # workers ignore Ctrl-C themselves, the parent stops them
+        with _pool_context().Pool(processes=min(workers, len(items)),
+                                  initializer=_ignore_sigint) as pool:
+            yield from pool.imap(fn, items)
     else:
         for item in items:
             yield fn(item)
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _dask_map(fn, items, scheduler: str):

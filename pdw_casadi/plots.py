@@ -23,19 +23,27 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.colors import LinearSegmentedColormap  # noqa: E402
 
+from .faces import WalkerFaces, faces_from_trajectory  # noqa: E402
+
 __all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_fit", "plot_limit_cycle",
            "plot_stick", "plot_sweep", "snapshot_rows"]
 
-PHASE_COLORS = {"I": "#d8e6f3", "II": "#f4f4f4", "III": "#f6e3cf"}
 LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
+JOINT_LABELS = {"knee": "knee flexion [deg]", "hip": "hip: thigh from slope normal [deg]"}
+
+
+def _faces(trajectory, faces: WalkerFaces | None) -> WalkerFaces:
+    return faces if faces is not None else faces_from_trajectory(trajectory)
 
 
 def phase_spans(trajectory: pd.DataFrame) -> list[tuple[int, str, float, float]]:
     """Contiguous (step, phase, t_start, t_end) runs of the trajectory, in time order (s).
 
-    A phase starts at the end of the previous one (the trajectory's first row of a phase is
-    one integration step after its start); the first phase of the trajectory starts at the
-    start of its step, taken as the first recorded time minus one sample.
+    A run is a stretch of rows with the same ``step`` (the simulator's step index) and
+    phase: consecutive steps of a one-phase walker are separate runs. A phase starts at the
+    end of the previous one (the trajectory's first row of a phase is one integration step
+    after its start); the first phase of the trajectory starts at the start of its step,
+    taken as the first recorded time minus one sample.
     """
     if trajectory is None or trajectory.empty:
         return []
@@ -54,21 +62,20 @@ def phase_spans(trajectory: pd.DataFrame) -> list[tuple[int, str, float, float]]
 
 
 def _run_steps(trajectory: pd.DataFrame) -> np.ndarray:
-    """The step of each row, constant over each contiguous run of one phase (the step of the
-    run's first row): the state at a phase's final event belongs to that phase's step."""
-    step = trajectory["step"].to_numpy().copy()
-    phase = trajectory["phase"].to_numpy()
-    for i in range(1, len(step)):
-        if phase[i] == phase[i - 1] and step[i] != step[i - 1]:
-            step[i] = step[i - 1]
-    return step
+    """The step index of each row, as recorded by the simulator (every row of a step,
+    including the state at its last event, carries the step's index)."""
+    return trajectory["step"].to_numpy().astype(int)
 
 
-def physical_leg_angles(trajectory: pd.DataFrame) -> dict[str, dict[str, np.ndarray]]:
-    """Knee and hip angles (deg) of the physical legs A and B (see the module docstring)."""
+def physical_leg_angles(trajectory: pd.DataFrame,
+                        joints=("knee", "hip")) -> dict[str, dict[str, np.ndarray]]:
+    """Joint angles (deg) of the physical legs A and B (see the module docstring), for the
+    ``joints`` that the trajectory has (``<joint>1_deg``, ``<joint>2_deg`` columns)."""
     odd = (_run_steps(trajectory) % 2) == 1
     out: dict[str, dict[str, np.ndarray]] = {"A": {}, "B": {}}
-    for joint in ("knee", "hip"):
+    for joint in joints:
+        if f"{joint}1_deg" not in trajectory or f"{joint}2_deg" not in trajectory:
+            continue
         one = trajectory[f"{joint}1_deg"].to_numpy()
         two = trajectory[f"{joint}2_deg"].to_numpy()
         out["A"][joint] = np.where(odd, two, one)
@@ -76,47 +83,56 @@ def physical_leg_angles(trajectory: pd.DataFrame) -> dict[str, dict[str, np.ndar
     return out
 
 
-def _shade_phases(axes, spans, label_ax) -> None:
+def _shade_phases(axes, spans, label_ax, faces: WalkerFaces) -> None:
     total = spans[-1][3] - spans[0][2] if spans else 0.0
     for _step, phase, t0, t1 in spans:
         for ax in axes:
-            ax.axvspan(t0, t1, color=PHASE_COLORS.get(phase, "#eeeeee"), zorder=0, lw=0)
+            ax.axvspan(t0, t1, color=faces.phase_color(phase), zorder=0, lw=0)
             ax.axvline(t0, color="0.6", lw=0.6, zorder=1)
         if t1 - t0 < 0.03 * total:
-            continue  # too short to label legibly (phases I and III last a few ms)
+            continue  # too short to label legibly (impact phases last a few ms)
         label_ax.annotate(phase, xy=((t0 + t1) / 2, 1.0), xycoords=("data", "axes fraction"),
                           xytext=(0, 2), textcoords="offset points", ha="center", va="bottom",
                           fontsize=8, color="0.25")
 
 
-def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None) -> Path:
-    """Knee flexion and hip angle of both legs against time, phases shaded and labelled.
-
-    Knee: thigh minus shank angle (deg, flexion positive). Hip: thigh angle from the slope
-    normal (deg), as in the paper. Returns the path written.
+def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None,
+                faces: WalkerFaces | None = None) -> Path:
+    """Joint angles of both legs against time (one panel per joint of the walker: knee
+    flexion, thigh minus shank, deg; hip, thigh from the slope normal, deg, as in the
+    paper), phases shaded and labelled, steps separated. ``faces``: the walker's names
+    (:func:`pdw_casadi.faces.walker_faces`); default: read off the trajectory.
+    Returns the path written.
     """
     path = Path(path)
-    fig, (ax_k, ax_h) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    faces = _faces(trajectory, faces)
+    joints = [j for j in faces.joints if trajectory is not None
+              and f"{j}1_deg" in trajectory] or ["hip"]
+    fig, axes = plt.subplots(len(joints), 1, figsize=(9, 3 * len(joints) + 0.5), sharex=True,
+                             squeeze=False)
+    axes = list(axes[:, 0])
     if trajectory is None or trajectory.empty:
-        ax_k.text(0.5, 0.5, "no trajectory recorded", ha="center", transform=ax_k.transAxes)
+        axes[0].text(0.5, 0.5, "no trajectory recorded", ha="center",
+                     transform=axes[0].transAxes)
     else:
         t = trajectory["t"].to_numpy()
-        legs = physical_leg_angles(trajectory)
+        legs = physical_leg_angles(trajectory, joints)
         spans = phase_spans(trajectory)
-        _shade_phases((ax_k, ax_h), spans, ax_k)
+        _shade_phases(axes, spans, axes[0], faces)
         for leg, angles in legs.items():
-            ax_k.plot(t, angles["knee"], color=LEG_COLORS[leg], lw=1.4,
-                      label=f"leg {leg}" + (" (stance in step 0)" if leg == "A" else ""))
-            ax_h.plot(t, angles["hip"], color=LEG_COLORS[leg], lw=1.4, label=f"leg {leg}")
-        ax_k.set_xlim(spans[0][2], spans[-1][3])
-        ax_k.legend(loc="upper left", fontsize=8, framealpha=0.9)
-    ax_k.set_ylabel("knee flexion [deg]")
-    ax_h.set_ylabel("hip: thigh from slope normal [deg]")
-    ax_h.set_xlabel("time [s]")
-    for ax in (ax_k, ax_h):
+            for ax, joint in zip(axes, joints, strict=True):
+                ax.plot(t, angles[joint], color=LEG_COLORS[leg], lw=1.4,
+                        label=f"leg {leg}" + (" (stance in step 0)" if leg == "A" else ""))
+        if spans[-1][3] > spans[0][2]:
+            axes[0].set_xlim(spans[0][2], spans[-1][3])
+        axes[0].legend(loc="upper left", fontsize=8, framealpha=0.9)
+    for ax, joint in zip(axes, joints, strict=True):
+        ax.set_ylabel(JOINT_LABELS.get(joint, f"{joint} [deg]"))
         ax.grid(True, lw=0.4, alpha=0.6)
-    fig.suptitle(title or "Joint angles; shaded: phase I (blue, foot flat + trailing toe), "
-                 "II (grey, swing), III (orange, toe + heel pivots)", fontsize=10)
+    axes[-1].set_xlabel("time [s]")
+    caption = faces.phase_caption()
+    head = title or "Joint angles"
+    fig.suptitle(head + (f"\nshaded: {caption}" if caption else ""), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -245,41 +261,66 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | No
     return path
 
 
-def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=(("q1", "q2"), ("q4", "q3")),
-                     title: str | None = None) -> Path:
-    """The paper's Fig. 4: shank (a) and thigh (b) phase portraits of one leg over two steps.
+def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
+    """Row positions (in ``seg``, one step) of the key instants and their labels: the start
+    (just after the section transition, ``<label>+``), every transition inside the step
+    (an impact gives ``<label>-`` / ``<label>+``, a smooth switch one mark) and the end
+    (``<label>-`` of the section transition)."""
+    sec = faces.section_transition
+    sec_label = faces.instant_label(sec.name) if sec else "section"
+    rows = {f"{sec_label}+": 0}
+    ph = seg["phase"].astype(str).to_numpy()
+    for i in np.flatnonzero(ph[1:] != ph[:-1]):
+        tr = faces.transition_from(ph[i])
+        label = faces.instant_label(tr.name) if tr else f"{ph[i]}->{ph[i + 1]}"
+        if tr is not None and tr.impact:
+            rows[f"{label}-"], rows[f"{label}+"] = int(i), int(i) + 1
+        else:
+            rows[label] = int(i)
+    rows[f"{sec_label}-"] = len(seg) - 1
+    return rows
+
+
+def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | None = None,
+                     faces: WalkerFaces | None = None) -> Path:
+    """The paper's Fig. 4: phase portraits of each segment of one leg over two steps.
 
     ``trajectory`` holds (at least) two steps from a fixed point; the physical leg is leg 1
-    (stance) in step 0 and leg 2 (swing) in step 1, given as (shank, thigh) coordinate
-    names per step. Key instants of each step are marked: a+ (after foot strike), b
-    (toe-off), c- / c+ (heel strike), a- (before foot strike). Angles in rad, rates in rad/s.
+    (stance) in step 0 and leg 2 (swing) in step 1. ``legs``: its coordinate names per
+    step, one per segment (default: the walker's, from ``faces``), e.g. (shank, thigh)
+    ``(("q1", "q2"), ("q4", "q3"))``. Key instants of each step are marked with the
+    walker's transition labels (the 6-link walker: the paper's a+ after foot strike, b
+    toe-off, c- / c+ heel strike, a- before foot strike). Angles in rad, rates in rad/s.
     """
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    faces = _faces(trajectory, faces)
+    legs = tuple(tuple(leg) for leg in (legs or faces.legs))
+    if not legs:
+        raise ValueError("plot_limit_cycle needs the leg coordinates (legs= or faces=)")
+    n_seg = len(legs[0])
+    segments = faces.leg_segments if len(faces.leg_segments) == n_seg else \
+        tuple(f"segment {i + 1}" for i in range(n_seg))
+    fig, axes = plt.subplots(1, n_seg, figsize=(5 * n_seg, 4.2), squeeze=False)
+    axes = list(axes[0])
     colors = ("tab:blue", "tab:orange")
-    for k, (shank, thigh) in enumerate(legs):
-        seg = trajectory[trajectory["step"] == k]
+    steps = _run_steps(trajectory)
+    for k, names in enumerate(legs):
+        seg = trajectory[steps == k]
         if seg.empty:
             continue
         role = "stance" if k == 0 else "swing"
-        for ax, name in zip(axes, (shank, thigh), strict=True):
+        marks = _instants(seg, faces)
+        for ax, name in zip(axes, names, strict=True):
             ax.plot(seg[name], seg["d" + name], color=colors[k % 2], lw=1.4,
                     label=f"step {k + 1} ({role})")
-            ph = seg["phase"].to_numpy()
-            rows = {"a+": 0, "a-": len(seg) - 1}
-            change = np.flatnonzero(ph[1:] != ph[:-1])
-            if len(change) >= 1:
-                rows["b"] = int(change[0])
-            if len(change) >= 2:
-                rows["c-"], rows["c+"] = int(change[1]), int(change[1]) + 1
-            for lab, i in rows.items():
+            for lab, i in marks.items():
                 xv, yv = seg[name].iloc[i], seg["d" + name].iloc[i]
                 ax.plot(xv, yv, "o", color="k", ms=3.5)
                 ax.annotate(lab, (xv, yv), textcoords="offset points", xytext=(4, 4),
                             fontsize=8)
-    for ax, what in zip(axes, ("(a) shank", "(b) thigh"), strict=True):
+    for i, (ax, what) in enumerate(zip(axes, segments, strict=True)):
         ax.set_xlabel("absolute angle (rad)")
         ax.set_ylabel("angular velocity (rad/s)")
-        ax.set_title(what)
+        ax.set_title(f"({chr(ord('a') + i)}) {what}" if n_seg > 1 else what)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     if title:

@@ -27,6 +27,12 @@ class ProblemError(ValueError):
 
 #: numerical settings with their defaults (s, s)
 NUMERICS_DEFAULTS = {"step_size": 5e-4, "max_phase_time": 2.0}
+#: accepted ranges of the numerical settings (s): below the smallest step size a phase
+#: needs millions of RK4 steps (and as many recorded samples); above the largest the fixed
+#: RK4 step is too coarse for the walkers' contact and knee-spring dynamics (the event
+#: location and the energy balance break down); a phase longer than the largest
+#: max_phase_time is not a step
+NUMERICS_RANGES = {"step_size": (1e-5, 1e-2), "max_phase_time": (1e-2, 10.0)}
 #: validity margins with their defaults (N, m, m)
 VALIDITY_DEFAULTS = {"min_normal_force": 0.0, "min_clearance": 0.0, "min_cop_margin": 0.0}
 
@@ -108,8 +114,10 @@ class Problem:
         if "compliance" in changes:
             unknown = set(changes["compliance"]) - set(self.compliance)
             if unknown:
+                known = (f"known: {', '.join(self.compliance)}" if self.compliance
+                         else f"the {self.family} walker has no compliance values")
                 raise ProblemError(f"{self.name}: unknown compliance key(s) {sorted(unknown)}; "
-                                   f"known: {', '.join(self.compliance)}")
+                                   f"{known}")
             changes["compliance"] = {**self.compliance, **changes["compliance"]}
         for key in ("anthropometry", "compliance", "initial_state", "numerics", "validity",
                     "compliance_bounds"):
@@ -139,13 +147,48 @@ class Problem:
         }
 
 
+def _show(v) -> str:
+    """A value for a message: numbers as plain Python numbers (no numpy reprs)."""
+    if isinstance(v, np.generic):
+        v = v.item()
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _num(where: str, key: str, v) -> float:
+    if isinstance(v, np.generic) and not isinstance(v, np.bool_):
+        v = v.item()
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise ProblemError(f"{where}: '{key}' must be a number, got {v!r}")
+        raise ProblemError(f"{where}: '{key}' must be a number, got {_show(v)}")
     v = float(v)
     if not math.isfinite(v):
-        raise ProblemError(f"{where}: '{key}' must be finite, got {v!r}")
+        raise ProblemError(f"{where}: '{key}' must be finite, got {v}")
     return v
+
+
+def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
+    """Raise :class:`ProblemError` when a compliance value lies outside the problem's
+    ``compliance_bounds`` (or is negative where the walker needs it >= 0).
+
+    The problem file's own values are checked when it is loaded; this applies the same
+    limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids.
+    """
+    from .walkers import get_family
+
+    fam = get_family(problem.family)
+    for k, v in values.items():
+        if k == "slope":
+            if not abs(v) < math.pi / 4:
+                raise ProblemError(f"{where}: slope = {v:g} rad must be below pi/4 rad")
+            continue
+        if k in fam.NONNEGATIVE_COMPLIANCE and v < 0:
+            raise ProblemError(f"{where}: '{k}' = {v:g} must be >= 0")
+        if k in problem.compliance_bounds:
+            lo, hi = problem.compliance_bounds[k]
+            if not lo <= v <= hi:
+                src = problem.source or problem.name
+                raise ProblemError(f"{where}: '{k}' = {v:g} lies outside its bounds "
+                                   f"[{lo:g}, {hi:g}] (compliance_bounds of {src})")
 
 
 def _section(raw: Mapping, where: str, name: str, required: list[str],
@@ -179,6 +222,10 @@ def _check_values(pb: Problem, where) -> None:
     for k, v in pb.numerics.items():
         if not v > 0:
             raise ProblemError(f"{where}: 'numerics.{k}' must be positive, got {v}")
+        lo, hi = NUMERICS_RANGES.get(k, (0.0, math.inf))
+        if not lo <= v <= hi:
+            raise ProblemError(f"{where}: 'numerics.{k}' must lie in [{lo:g}, {hi:g}] s, "
+                               f"got {v:g}")
     if not pb.g > 0:
         raise ProblemError(f"{where}: 'environment.g' must be positive, got {pb.g}")
     if not abs(pb.slope) < math.pi / 4:
@@ -188,6 +235,10 @@ def _check_values(pb: Problem, where) -> None:
             raise ProblemError(f"{where}: 'compliance.{k}' must be finite")
         if k in fam.NONNEGATIVE_COMPLIANCE and v < 0:
             raise ProblemError(f"{where}: 'compliance.{k}' must be >= 0, got {v}")
+    for k, (lo, hi) in pb.compliance_bounds.items():
+        if not lo <= hi:
+            raise ProblemError(f"{where}: 'compliance_bounds.{k}' = [{lo:g}, {hi:g}] is "
+                               f"reversed (lower > upper)")
     for k, v in pb.initial_state.items():
         if not math.isfinite(v):
             raise ProblemError(f"{where}: 'initial_state.{k}' must be finite")
@@ -197,6 +248,8 @@ def _check_values(pb: Problem, where) -> None:
 def load_problem(name_or_path: str | Path) -> Problem:
     """Load and validate a problem: a bundled name (``"humanlike_6link"``) or a TOML path."""
     path = resolve(name_or_path, "problems", ".toml")
+    if path.is_dir():
+        raise ProblemError(f"problem {str(name_or_path)!r} is a directory, not a problem file")
     if not path.is_file():
         known = ", ".join(bundled_names("problems", ".toml"))
         raise ProblemError(f"problem {str(name_or_path)!r} not found: not a file and not a "
@@ -237,6 +290,9 @@ def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None =
     numerics = _section(raw, where, "numerics", [], NUMERICS_DEFAULTS)
     validity = _section(raw, where, "validity", [], VALIDITY_DEFAULTS)
     bounds_raw = raw.get("compliance_bounds", {})
+    if not isinstance(bounds_raw, Mapping):
+        raise ProblemError(f"{where}: [compliance_bounds] must be a table of "
+                           f"name = [lower, upper], got {_show(bounds_raw)}")
     bounds: dict[str, tuple[float, float]] = {}
     for k, v in bounds_raw.items():
         if k not in comp:
@@ -244,6 +300,9 @@ def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None =
         if not (isinstance(v, list) and len(v) == 2):
             raise ProblemError(f"{where}: 'compliance_bounds.{k}' must be [lower, upper]")
         lo, hi = (_num(where, f"compliance_bounds.{k}", x) for x in v)
+        if not lo <= hi:
+            raise ProblemError(f"{where}: 'compliance_bounds.{k}' = [{lo:g}, {hi:g}] is "
+                               f"reversed (lower > upper)")
         if not lo <= comp[k] <= hi:
             raise ProblemError(f"{where}: 'compliance.{k}' = {comp[k]} lies outside its bounds "
                                f"[{lo}, {hi}]")
@@ -264,20 +323,45 @@ def load_overrides(path: str | Path, what: str) -> dict[str, float]:
     A file may also be a ``summary.json`` written by this toolkit: its ``fixed_point`` (for
     ``what="state"``) or ``compliance`` table is used.
     """
-    import json
 
     p = Path(path)
+    if p.is_dir():
+        raise ProblemError(f"{p}: is a directory, not a {what} file")
     if not p.is_file():
-        raise ProblemError(f"{p}: {what} file not found")
-    try:
-        raw = json.loads(p.read_text()) if p.suffix == ".json" else tomllib.loads(p.read_text())
-    except (ValueError, tomllib.TOMLDecodeError) as exc:
-        raise ProblemError(f"{p}: cannot parse {what} file: {exc}") from None
+        raise ProblemError(f"{p}: {what} file not found" if not p.exists()
+                           else f"{p}: not a regular file")
+    raw = read_table(p, what)
     key = {"state": ("fixed_point", "initial_state"), "compliance": ("compliance",)}[what]
     for k in key:
         if isinstance(raw, Mapping) and isinstance(raw.get(k), Mapping):
             raw = raw[k]
             break
     if not isinstance(raw, Mapping) or not raw:
-        raise ProblemError(f"{p}: expected a table of {what} values")
+        raise ProblemError(f"{p}: expected a table of {what} values, got "
+                           f"{'an empty table' if isinstance(raw, Mapping) else _show(raw)}")
     return {k: _num(str(p), k, v) for k, v in raw.items()}
+
+
+def read_table(path: Path, what: str):
+    """Parse a JSON or TOML file: by suffix (``.json`` / ``.toml``, any case), else JSON when
+    the text parses as JSON, else TOML. Raises :class:`ProblemError` naming the file."""
+    import json
+
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except UnicodeDecodeError:
+        raise ProblemError(f"{p}: cannot parse {what} file: not UTF-8 text") from None
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".json":
+            return json.loads(text)
+        if suffix == ".toml":
+            return tomllib.loads(text)
+        try:
+            return json.loads(text)
+        except ValueError:
+            return tomllib.loads(text)
+    except (ValueError, tomllib.TOMLDecodeError) as exc:
+        kind = {".json": "JSON", ".toml": "TOML"}.get(suffix, "JSON or TOML")
+        raise ProblemError(f"{p}: cannot parse {what} file as {kind}: {exc}") from None

@@ -20,6 +20,18 @@ from .hybrid import FAILURE, GUARD, HybridSystem
 from .system import hybrid_system
 
 TAU_TOL = 1e-13  # s, event-time tolerance of the Newton location
+#: a state beyond these is a numerical blow-up, not a walker: |coordinate| (rad or m) and
+#: |velocity| (rad/s or m/s). A falling walker stays far below (its fall event ends it).
+Q_LIMIT, QD_LIMIT = 100.0, 1000.0
+#: a step whose energy balance is off by more than ENERGY_TOL_J + ENERGY_RTOL * |E| (J)
+#: was not integrated faithfully (normal runs: ~1e-6 J); see :func:`energy_tolerance`
+ENERGY_TOL_J, ENERGY_RTOL = 0.05, 1e-3
+DIVERGENCE = "numerical_divergence"
+
+
+def energy_tolerance(*energies: float) -> float:
+    """The largest energy-balance residual (J) accepted for a step with these energies."""
+    return ENERGY_TOL_J + ENERGY_RTOL * max((abs(e) for e in energies), default=0.0)
 
 
 @dataclass
@@ -29,6 +41,9 @@ class Failure:
     ``reason``: e.g. ``fall``, ``toe_scuff``, ``foot1_lift`` (contact force of the wrong
     sign), ``cop1_at_heel`` (centre of pressure outside the foot), ``heel_strike:impulse_toe1``
     (impulse of the wrong sign), ``guard_not_reached``; ``step`` (0-based), ``time`` (s).
+    ``numerical_divergence`` is not physical: the states became non-finite or absurd or the
+    energy balance broke (the step size is too large for the walker's stiffest mode);
+    ``sample_limit``: the recorded trajectory reached ``max_samples``.
     """
 
     reason: str
@@ -231,6 +246,10 @@ class Simulator:
                 Gp = np.column_stack([g_prev, G[:, :-1]])
                 mask = self._crossings(Gp, G, enabled, armed)
                 cols = np.flatnonzero(mask.any(axis=0))
+            bad = _diverged_column(X, hs.nq, int(cols[0]) if len(cols) else X.shape[1] - 1)
+            if bad is not None:
+                x_bad = X[:, bad]
+                return x_bad, mode, t + (bad + 1) * h, None, _divergence_detail(x_bad, hs)
             if len(cols) == 0:
                 if rec is not None:
                     rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, self._step))
@@ -261,6 +280,8 @@ class Simulator:
                 rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], self._step))
             plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, int(idx), sign))
             n_full = 0
+            if _diverged_column(x_e[:, None], hs.nq, 0) is not None:
+                return x_e, mode, t, None, _divergence_detail(x_e, hs)
             if ev.kind == FAILURE:
                 return x_e, mode, t, ev, ev.name
             if ev.kind == GUARD:
@@ -294,11 +315,16 @@ class Simulator:
 
     # -- whole steps -----------------------------------------------------------------------
     def run(self, x_section, p, steps: int = 1, record: bool = True,
-            mode: dict | None = None, progress=None, margins: bool = False) -> SimulationResult:
+            mode: dict | None = None, progress=None, margins: bool = False,
+            max_samples: int | None = None) -> SimulationResult:
         """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``.
 
         ``record``: build the trajectory DataFrame (and the steps' validity margins);
         ``margins``: only the margins (``StepRecord.margins``), without the DataFrame.
+        ``max_samples``: stop (failure ``sample_limit``) after the step in which the recorded
+        trajectory exceeds this many samples (bounds the memory of long runs).
+        A numerical blow-up ends the run with failure ``numerical_divergence``
+        (:class:`Failure`), never with a physical failure reason.
         """
         hs = self.hs
         model = hs.model
@@ -311,6 +337,7 @@ class Simulator:
         event_rows: list[dict] = []
         records: list[StepRecord] = []
         failure = None
+        n_samples = n_counted = 0  # recorded samples (for max_samples), entries counted
         transitions = hs.transitions
         first = hs.phase_names[0]
         for k in range(steps):
@@ -337,6 +364,20 @@ class Simulator:
                 self._phase_margins(phase, rec, n_rec, p, margins, t, dt)
                 t += dt
                 sr.phases.append((phase, dt))
+                if fail is not None and ev is not None and ev.kind == FAILURE:
+                    # a physical failure only counts if the energy balance still holds
+                    drift = self._drift(sr, x_end, p, mode, w0)
+                    if drift is not None:
+                        fail = (f"{DIVERGENCE}: the energy balance is off by {drift:.3g} J "
+                                f"when '{fail}' was reached; {_ADVICE}")
+                if fail is not None and fail.startswith(DIVERGENCE):
+                    detail = fail[len(DIVERGENCE) + 2:]
+                    fail = DIVERGENCE
+                    failure = Failure(fail, k, t, phase, detail)
+                    event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
+                                       "kind": "failure"})
+                    x = x_end
+                    break
                 if fail is not None:
                     failure = Failure(fail, k, t, phase, ev.description if ev else "")
                     event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
@@ -381,10 +422,40 @@ class Simulator:
                     break
             if failure is not None:
                 break
+            residual = sr.energy_residual_J
+            if not abs(residual) <= energy_tolerance(sr.energy_start_J, sr.energy_end_J):
+                failure = Failure(DIVERGENCE, k, t, phase,
+                                  f"the energy balance of the step is off by {residual:.3g} J;"
+                                  f" {_ADVICE}")
+                sr.x_section_end = None
+                event_rows.append({"step": k, "phase": phase, "event": DIVERGENCE, "t": t,
+                                   "kind": "failure"})
+                break
             if progress is not None:
                 progress(k + 1)
+            if max_samples is not None and rec is not None:
+                n_samples += sum(e[3].shape[1] for e in rec[n_counted:])
+                n_counted = len(rec)
+            if max_samples is not None and rec is not None and k + 1 < steps \
+                    and n_samples > max_samples:
+                failure = Failure("sample_limit", k, t, phase,
+                                  f"the recorded trajectory exceeds {max_samples} samples "
+                                  f"after {k + 1} steps; ask for fewer steps")
+                event_rows.append({"step": k, "phase": phase, "event": "sample_limit",
+                                   "t": t, "kind": "failure"})
+                break
         traj = self._trajectory(rec, records, p) if record else None
         return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
+
+    def _drift(self, sr, x, p, mode, w0) -> float | None:
+        """The energy-balance residual (J) of the step so far at state ``x`` when it exceeds
+        :func:`energy_tolerance`, else None."""
+        e_now = self._energy(x, p, self.hs.mode_vector(mode))
+        lost = (x[-1] - w0) + sr.impact_loss_J + self._spring_loss
+        drift = (sr.energy_start_J - e_now) - lost
+        if abs(drift) <= energy_tolerance(sr.energy_start_J, e_now):
+            return None
+        return float(drift)
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
         """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
@@ -435,6 +506,37 @@ class Simulator:
         if not frames:
             return pd.DataFrame()
         return pd.concat(frames, ignore_index=True)
+
+
+_ADVICE = ("a numerical blow-up, not a physical failure: the step size "
+           "(numerics.step_size) is too large for the walker's stiffest mode (compliance "
+           "values) - reduce it or use less extreme compliance")
+
+
+def _diverged_column(X, nq: int, last: int) -> int | None:
+    """First column <= ``last`` of the states X (columns) that is non-finite or absurd
+    (|q| > Q_LIMIT, |qd| > QD_LIMIT), else None."""
+    Y = X[: 2 * nq, : last + 1]
+    if np.abs(Y).max() <= Q_LIMIT:  # fast path (NaN compares False); Q_LIMIT <= QD_LIMIT
+        return None
+    ok = np.isfinite(Y).all(axis=0)
+    ok &= (np.abs(Y[:nq]) <= Q_LIMIT).all(axis=0)
+    ok &= (np.abs(Y[nq: 2 * nq]) <= QD_LIMIT).all(axis=0)
+    if ok.all():
+        return None
+    return int(np.flatnonzero(~ok)[0])
+
+
+def _divergence_detail(x, hs) -> str:
+    names = _q_names(hs)
+    q, qd = x[: hs.nq], x[hs.nq: 2 * hs.nq]
+    if not np.isfinite(x).all():
+        what = "the state became non-finite"
+    else:
+        i, j = int(np.argmax(np.abs(q))), int(np.argmax(np.abs(qd)))
+        what = (f"absurd state ({names[i]} = {q[i]:.3g}, d{names[j]} = {qd[j]:.3g}; limits "
+                f"|q| <= {Q_LIMIT:g}, |dq| <= {QD_LIMIT:g})")
+    return f"{DIVERGENCE}: {what}; {_ADVICE}"
 
 
 def _q_names(hs) -> list[str]:

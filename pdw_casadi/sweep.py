@@ -43,7 +43,12 @@ from .continuation import (
 )
 from .fixed_point import FixedPointResult
 from .parallel import map_tasks
-from .problem import Problem, ProblemError
+from .problem import Problem, ProblemError, check_bounds
+
+
+class NoStartGait(ProblemError):
+    """The sweep's start (the problem's own parameters and initial state) has no valid
+    fixed point: nothing to follow."""
 
 
 @dataclass(frozen=True)
@@ -146,10 +151,11 @@ def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
         nan["r2_thigh"] = math.nan
     if not res.converged:
         return nan
-    one = Simulator(problem).run(res.state, res.parameters, steps=1, record=True)
+    sim = Simulator(problem)
+    one = sim.run(res.state, res.parameters, steps=1, record=True)
     if one.failure is not None:
         return nan
-    return fit_scores(gait_cycle(one.trajectory), human)
+    return fit_scores(gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase), human)
 
 
 def stable_ranges(table: pd.DataFrame, events: list[Event], parameter: str) -> list[dict]:
@@ -288,14 +294,20 @@ def sweep(problem: Problem, values, parameter: str = "slope", mode: str = "conti
     index = parameter_index(problem, parameter)
     grid = [float(v) for v in values]
     if len(grid) < 2 or len(set(grid)) != len(grid) or not all(map(math.isfinite, grid)):
-        raise ProblemError(f"sweep grid must hold at least 2 distinct finite values, got {grid}")
+        shown = ", ".join(f"{v:g}" for v in grid[:6]) + (", ..." if len(grid) > 6 else "")
+        raise ProblemError(f"sweep grid must hold at least 2 distinct finite values, "
+                           f"got [{shown}]")
+    # the problem's bounds (compliance_bounds, non-negative dampers, |slope| < pi/4) hold
+    # for a sweep as for the problem file and the overrides: the grid's ends are checked
+    for v in (min(grid), max(grid)):
+        check_bounds(problem, {parameter: v}, f"sweep of {parameter}")
     if mode not in ("continuation", "grid"):
         raise ProblemError(f"unknown sweep mode {mode!r}: use 'continuation' or 'grid'")
     corrector = corrector or NewtonCorrector(problem, settings.tol, settings.max_iter)
     start = start_point(problem, index, corrector)
     if not start.ok:
         why = start.result.failure or "Newton did not converge"
-        raise ProblemError(f"no valid fixed point at the start ({parameter} = {start.value:.8g}"
+        raise NoStartGait(f"no valid fixed point at the start ({parameter} = {start.value:.8g}"
                            f", from the problem's initial state): {why}")
     start.on_grid = any(abs(v - start.value) <= 1e-12 * max(1.0, abs(v)) for v in grid)
     rows: list[dict] = []

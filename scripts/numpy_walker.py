@@ -1,7 +1,7 @@
 """Plain numpy/scipy reference implementation of one step of the humanlike 6-link walker.
 
 Independent of the CasADi package (no casadi import): it serves as the baseline of the speed
-benchmark and as a cross-check of ``pdw_casadi``. Conventions follow ``MODEL.md`` exactly:
+benchmark and as a cross-check of ``pdw_casadi``. Conventions follow ``docs/model.md`` exactly:
 
 * q = [q1, q2, q3, q4, qf1, qf2, x_t1, y_t1], absolute angles from the vertical, and
   d(a) = (sin a, -cos a) the proximal-to-distal unit vector of a link.

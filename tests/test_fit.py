@@ -18,8 +18,9 @@ def synthetic_curves(problem, p_true, path, x0=None) -> pd.DataFrame:
     """The 101-point knee/hip/thigh curves of the fixed point at ``p_true``, as a curve file."""
     fp = find_fixed_point(problem, problem.state_vector() if x0 is None else x0, p_true)
     assert fp.converged
-    one = Simulator(problem).run(fp.state, fp.parameters, steps=1)
-    c = gait_cycle(one.trajectory)
+    sim = Simulator(problem)
+    one = sim.run(fp.state, fp.parameters, steps=1)
+    c = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
     frame = pd.DataFrame({"cycle_pct": c.cycle_pct, "hip_mean_deg": c.hip_deg,
                           "knee_mean_deg": c.knee_deg, "thigh_mean_deg": c.thigh_deg})
     frame.to_csv(path, index=False)

@@ -71,7 +71,7 @@ def test_from_fit_starts_at_the_fit(tmp_path):
     (["--param", "k_knee"], "no parameter 'k_knee'"),
     (["--num", "1"], "--num must be >= 2"),
     (["--from-fit", "missing.json"], "missing.json"),
-    (["--gait", "female_fast.csv"], "needs a walker with a heel-strike phase III"),
+    (["--gait", "female_fast.csv"], "needs knee and hip curves"),
 ])
 def test_user_errors_exit_2(tmp_path, capsys, extra, message):
     with pytest.raises(SystemExit) as exc:
@@ -81,8 +81,9 @@ def test_user_errors_exit_2(tmp_path, capsys, extra, message):
     assert err.startswith("error: ") and message in err
 
 
-def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch):
-    """sweep.csv is appended row by row: stopping the sweep (Ctrl-C) loses nothing found."""
+def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch, capsys):
+    """The rows are appended one by one (to sweep.partial.csv until the sweep completes):
+    stopping the sweep (Ctrl-C) loses nothing found, and one line says where they are."""
     import pdw_casadi.sweep as sweep_module
 
     real, calls = sweep_module.point_row, []
@@ -94,9 +95,12 @@ def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(sweep_module, "point_row", interrupted_after_three)
-    with pytest.raises(KeyboardInterrupt):
-        sweep_main([*ARGS, "--out", str(tmp_path)])
-    table = pd.read_csv(tmp_path / "sweep.csv")
+    assert sweep_main([*ARGS, "--out", str(tmp_path)]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    partial = tmp_path / "sweep.partial.csv"
+    assert err.startswith("interrupted: ") and f"3 rows found so far are in {partial}" in err
+    assert not (tmp_path / "sweep.csv").exists()
+    table = pd.read_csv(partial)
     assert len(table) == 3 and table["converged"].all()
     np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
 
@@ -115,8 +119,10 @@ def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
     assert len(table) == 2 and table["converged"].all()
     pb = load_problem("humanlike_6link")
     fp = find_fixed_point(pb)
-    one = Simulator(pb).run(fp.state, fp.parameters, steps=1, record=True)
-    scores = fit_scores(gait_cycle(one.trajectory), load_gait_curves("female_fast.csv"))
+    sim = Simulator(pb)
+    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    scores = fit_scores(gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase),
+                        load_gait_curves("female_fast.csv"))
     at_paper = table[table["slope"] == 0.1484].iloc[0]
     for key in ("r2_knee", "r2_hip", "r2_thigh"):
         assert at_paper[key] == pytest.approx(scores[key], abs=1e-8)

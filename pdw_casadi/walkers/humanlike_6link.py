@@ -1,6 +1,6 @@
 """The humanlike 6-link walker of the paper (flat feet, compliant ankles, engageable knees).
 
-Conventions follow the project's MODEL.md: absolute angles from the vertical with link
+Conventions follow docs/model.md of the repository: absolute angles from the vertical with link
 direction d(q) = (sin q, -cos q); q = [q1, q2, q3, q4, qf1, qf2, x_t1, y_t1]; three phases
 per step (I: leading foot flat + trailing toe pivot; II: single stance on the flat foot;
 III: trailing toe + leading heel pivots), heel strike and foot strike impacts, then a leg
@@ -30,6 +30,21 @@ MODE_KEYS = ("eng1", "eng2", "flex1", "flex2", "armed2")
 Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
 #: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
 SWAP = (3, 2, 1, 0, 5, 4)
+
+# -- faces of the walker for plots and reports (see pdw_casadi.faces) ---------------------
+PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
+                      "II": "single stance on the flat foot, swing",
+                      "III": "trailing toe + leading heel pivots"}
+#: (shank, thigh) of one physical leg: leg 1 (stance) in step 0, leg 2 (swing) in step 1
+LIMIT_CYCLE_LEGS = (("q1", "q2"), ("q4", "q3"))
+LEG_SEGMENTS = ("shank", "thigh")
+CURVE_JOINTS = ("knee", "hip")
+#: instants of the paper's Fig. 4: a (foot strike), b (toe-off), c (heel strike)
+INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c"}
+#: the paper's comparison walker [48] (point feet, locked stance knee), this anthropometry
+COMPARISON_PROBLEM = "comparison_kneed_6link"
+#: R^2 of the paper's own fit (its four subjects), shown beside a fit for comparison
+PAPER_REPORTED_R2 = {"r2_knee": 0.891, "r2_hip": 0.899}
 
 
 def check_anthropometry(a, where) -> None:

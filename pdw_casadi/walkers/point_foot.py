@@ -7,7 +7,7 @@ leg is a shank (point mass ``m_s`` at ``a1`` from the foot, ``b1`` from the knee
 ``J_s`` about it) and a thigh (``m_t`` at ``a2`` from the knee, ``b2`` from the hip, ``J_t``),
 plus a hip mass ``m_h``. Both feet are points; no compliance, so p = [slope].
 
-Conventions (as in MODEL.md): absolute angles from the vertical, link direction
+Conventions (docs/model.md): absolute angles from the vertical, link direction
 proximal -> distal d(q) = (sin q, -cos q) (hip -> knee -> foot), so q grows counter-clockwise
 and the walker walks downhill along +x; the stance foot is at (x_foot, y_foot).
 
@@ -277,6 +277,12 @@ FAMILY_COMPASS_GAIT = SimpleNamespace(
     NONNEGATIVE_COMPLIANCE=(),
     MODE_KEYS=(),
     Q_NAMES=CG_Q_NAMES,
+    PHASE_DESCRIPTIONS={"swing": "stance foot pinned, swing leg free"},
+    LIMIT_CYCLE_LEGS=(("q_st",), ("q_sw",)),
+    LEG_SEGMENTS=("leg",),
+    CURVE_JOINTS=("hip",),  # rigid legs: no knee
+    INSTANT_LABELS={},
+    COMPARISON_PROBLEM=None,
     check_anthropometry=check_compass_gait,
     build=build_compass_gait,
 )
@@ -291,6 +297,13 @@ FAMILY_KNEED_WALKER = SimpleNamespace(
     NONNEGATIVE_COMPLIANCE=(),
     MODE_KEYS=(),
     Q_NAMES=KW_Q_NAMES,
+    PHASE_DESCRIPTIONS={"unlocked": "stance knee locked, swing knee free",
+                        "locked": "both knees locked"},
+    LIMIT_CYCLE_LEGS=(("q1", "q2"), ("q4", "q3")),
+    LEG_SEGMENTS=("shank", "thigh"),
+    CURVE_JOINTS=("knee", "hip"),
+    INSTANT_LABELS={},
+    COMPARISON_PROBLEM=None,
     SWAP=KW_SWAP,
     check_anthropometry=check_kneed_walker,
     build=build_kneed_walker,

@@ -1,0 +1,108 @@
+"""Every bundled problem through every command, with plots whose steps are right.
+
+simulate (3 steps, with --animate), fixed-point and a 3-point sweep for every
+``problems/*.toml``; the fit where the walker has free parameters and knee/hip outputs
+(the 6-link walker; slow, a tiny configuration).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pdw_casadi.cli import fit_main, fixed_point_main, simulate_main, sweep_main
+from pdw_casadi.faces import walker_faces
+from pdw_casadi.plots import phase_spans, snapshot_rows
+from pdw_casadi.problem import load_problem
+
+ROOT = Path(__file__).resolve().parents[1]
+PROBLEMS = sorted(p.stem for p in (ROOT / "problems").glob("*.toml"))
+PNG = b"\x89PNG\r\n\x1a\n"
+#: half-width of the 3-point slope sweep around each problem's slope (rad): the 6-link
+#: walker's branch is only ~1e-3 rad long
+HALF_WIDTH = {"humanlike_6link": 5e-5}
+
+
+def _main(main, args):
+    try:
+        return main(args)
+    except SystemExit as exc:
+        return exc.code
+
+
+def test_every_bundled_problem_is_covered():
+    assert set(PROBLEMS) >= {"humanlike_6link", "compass_gait", "kneed_walker",
+                             "comparison_kneed_6link"}
+
+
+@pytest.mark.parametrize("name", PROBLEMS)
+def test_simulate_with_animation(name, tmp_path, capsys):
+    out = tmp_path / "sim"
+    gif = out / "walk.gif"
+    assert _main(simulate_main, ["--problem", name, "--steps", "3", "--animate", str(gif),
+                                 "--fps", "10", "--out", str(out)]) == 0, capsys.readouterr()
+    for f in ("trajectory.csv", "events.csv", "summary.json"):
+        assert (out / f).stat().st_size > 0
+    for f in ("angles.png", "stick.png"):
+        assert (out / f).read_bytes()[:8] == PNG
+    assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
+    traj = pd.read_csv(out / "trajectory.csv")
+    pb = load_problem(name)
+    faces = walker_faces(pb)
+    # the plots' steps: one run of each of the walker's phases per step, in model order
+    spans = phase_spans(traj)
+    assert [(s, ph) for s, ph, _, _ in spans] == [
+        (k, ph) for k in range(3) for ph in faces.phases]
+    events = pd.read_csv(out / "events.csv")
+    ends = events[(events["kind"] == "guard")
+                  & (events["event"] == faces.section_transition.name)]["t"].to_numpy()
+    assert len(ends) == 3
+    for (k, _ph, _t0, t1), t_end in zip([s for s in spans if s[1] == faces.phases[-1]], ends,
+                                        strict=True):
+        assert t1 == pytest.approx(t_end, abs=1e-9), k  # each step ends at its own event
+    rows = snapshot_rows(traj, n=6)
+    assert traj.loc[rows, "step"].eq(0).all() and traj.loc[rows, "t"].max() <= ends[0] + 1e-9
+
+
+@pytest.mark.parametrize("name", PROBLEMS)
+def test_fixed_point(name, tmp_path, capsys):
+    out = tmp_path / "fp"
+    assert _main(fixed_point_main, ["--problem", name, "--out", str(out)]) == 0, \
+        capsys.readouterr()
+    assert (out / "limit_cycle.png").read_bytes()[:8] == PNG
+    assert "converged=True" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", PROBLEMS)
+def test_sweep_over_three_points(name, tmp_path, capsys):
+    pb = load_problem(name)
+    d = HALF_WIDTH.get(name, 2e-3)
+    out = tmp_path / "sw"
+    assert _main(sweep_main, ["--problem", name, "--from", repr(pb.slope - d), "--to",
+                              repr(pb.slope + d), "--num", "3", "--out", str(out)]) == 0, \
+        capsys.readouterr()
+    table = pd.read_csv(out / "sweep.csv")
+    assert int(table["on_grid"].sum()) == 3 and table["converged"].all()
+    assert (out / "sweep.png").read_bytes()[:8] == PNG
+    assert (out / "events.json").exists() and not (out / "sweep.partial.csv").exists()
+
+
+FITTABLE = [n for n in PROBLEMS
+            if load_problem(n).compliance and walker_faces(load_problem(n)).has_gait_curves]
+
+
+def test_fittable_walkers():
+    assert FITTABLE == ["humanlike_6link"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", FITTABLE)
+def test_fit_tiny(name, tmp_path, capsys):
+    out = tmp_path / "fit"
+    code = _main(fit_main, ["--problem", name, "--gait", "female_fast.csv", "--max-iter", "25",
+                            "--rounds", "1", "--quiet", "--out", str(out)])
+    assert code == 0, capsys.readouterr()
+    for f in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md"):
+        assert (out / f).exists(), f
