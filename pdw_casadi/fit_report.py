@@ -76,7 +76,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
                    log=print, scheduler: str | None = None) -> dict:
     """Fit, compare with the references, write the report files into ``out``; the summary."""
     out = Path(out)
-    check_targets(problem, human, opts)  # before the reference solves
+    check_targets(problem, human, opts or FitOptions())  # before the reference solves
     log("reference: the problem's own compliance on the same data")
     table3 = reference_gait(problem, human)
     faces = walker_faces(problem)
