@@ -336,6 +336,21 @@ def test_d14_fixed_point_that_fails_at_the_start_is_quiet(tmp_path, capfd):
     assert [ln for ln in err.splitlines() if ln.startswith("no gait:")]
 
 
+def test_d14_ipopt_fallback_output_is_discarded(capfd):
+    """Failed map evaluations inside IPOPT print tracebacks and CasADi warnings on the
+    file descriptor 2; the fallback discards them (the result says what happened)."""
+    import os
+    import sys
+
+    from pdw_casadi.fixed_point import _quiet_stderr
+
+    with _quiet_stderr():
+        print("Traceback (most recent call last): from Python", file=sys.stderr)
+        os.write(2, b"CasADi - WARNING from C++\n")
+    print("after", file=sys.stderr)
+    assert capfd.readouterr().err == "after\n"
+
+
 def test_d14_interrupted_simulation_says_what_is_on_disk(tmp_path, capsys, monkeypatch):
     def interrupted(*a, **k):
         raise KeyboardInterrupt
