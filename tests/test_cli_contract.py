@@ -219,6 +219,18 @@ def test_d8_scheduler_address_checked_before_anything(tmp_path, capsys):
     assert time.perf_counter() - t0 < 20 and not out.exists()
 
 
+def test_d8_a_scheduler_that_answers_is_used(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "sw"
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None, protocol="tcp") as cluster:
+        code, _, err = run(capsys, sweep_main, [
+            "--problem", "compass_gait", "--from", "0.05", "--to", "0.06", "--num", "3",
+            "--mode", "grid", "--scheduler", cluster.scheduler_address, "--out", str(out)])
+    assert code == 0, err
+    assert int(pd.read_csv(out / "sweep.csv")["on_grid"].sum()) == 3
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--problem", "humanlike_6link", "--from", "0.1484", "--to", "0.1485", "--refit"],
      "--refit needs --gait"),
