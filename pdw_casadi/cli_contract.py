@@ -238,6 +238,8 @@ SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 def check_scheduler_address(address: str) -> None:
     """Raise :class:`UsageError` unless ``address`` looks like ``tcp://host:port``."""
     text = address.strip()
+    if text.startswith("inproc://") and len(text) > len("inproc://"):
+        return  # a scheduler in this very process (tests, notebooks)
     parts = urlsplit(text)
     if parts.scheme not in SCHEDULER_SCHEMES or "://" not in text:
         raise UsageError(f"--scheduler {address!r}: not a scheduler address; expected "

@@ -148,9 +148,12 @@ class Problem:
 
 
 def _show(v) -> str:
-    """A value for a message: numbers as plain Python numbers (no numpy reprs)."""
+    """A value for a message: numbers as plain Python numbers (no numpy reprs), JSON's
+    null as null."""
     if isinstance(v, np.generic):
         v = v.item()
+    if v is None:
+        return "null"
     text = repr(v)
     return text if len(text) <= 60 else text[:57] + "..."
 

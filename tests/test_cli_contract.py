@@ -219,6 +219,18 @@ def test_d8_scheduler_address_checked_before_anything(tmp_path, capsys):
     assert time.perf_counter() - t0 < 20 and not out.exists()
 
 
+def test_d8_a_scheduler_that_answers_is_used(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "sw"
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None, protocol="tcp") as cluster:
+        code, _, err = run(capsys, sweep_main, [
+            "--problem", "compass_gait", "--from", "0.05", "--to", "0.06", "--num", "3",
+            "--mode", "grid", "--scheduler", cluster.scheduler_address, "--out", str(out)])
+    assert code == 0, err
+    assert int(pd.read_csv(out / "sweep.csv")["on_grid"].sum()) == 3
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--problem", "humanlike_6link", "--from", "0.1484", "--to", "0.1485", "--refit"],
      "--refit needs --gait"),
@@ -334,6 +346,21 @@ def test_d14_fixed_point_that_fails_at_the_start_is_quiet(tmp_path, capfd):
     assert code == 1 and time.perf_counter() - t0 < 20
     assert "Traceback" not in err and "WARNING" not in err
     assert [ln for ln in err.splitlines() if ln.startswith("no gait:")]
+
+
+def test_d14_ipopt_fallback_output_is_discarded(capfd):
+    """Failed map evaluations inside IPOPT print tracebacks and CasADi warnings on the
+    file descriptor 2; the fallback discards them (the result says what happened)."""
+    import os
+    import sys
+
+    from pdw_casadi.fixed_point import _quiet_stderr
+
+    with _quiet_stderr():
+        print("Traceback (most recent call last): from Python", file=sys.stderr)
+        os.write(2, b"CasADi - WARNING from C++\n")
+    print("after", file=sys.stderr)
+    assert capfd.readouterr().err == "after\n"
 
 
 def test_d14_interrupted_simulation_says_what_is_on_disk(tmp_path, capsys, monkeypatch):
