@@ -139,7 +139,7 @@ class WalkerModel:
     links: list[tuple[str, str]] = field(default_factory=list)
     ground_normal: ca.SX | None = None
     q_names: tuple[str, ...] = ()
-    #: the phase that begins at the swing leg's heel strike (gait-cycle start, MODEL.md);
+    #: the phase that begins at the swing leg's heel strike (gait-cycle start, docs/model.md);
     #: None: the step itself begins at leg 1's heel strike (point feet)
     heel_strike_phase: str | None = None
 
