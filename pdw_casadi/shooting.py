@@ -66,8 +66,13 @@ class SegmentSpec:
     cross_rate0: float = 0.0  # its rate dg/dt there
 
 
-def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB) -> list[SegmentSpec]:
-    """Segment layout of one step from a simulator plan (see :class:`Plan`)."""
+def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
+                       headroom_s: float = 0.0) -> list[SegmentSpec]:
+    """Segment layout of one step from a simulator plan (see :class:`Plan`).
+
+    ``headroom_s`` (s): every segment gets intervals enough to grow by this much beyond its
+    starting duration (besides one interval of headroom): a segment's duration is bounded
+    by n_int n_sub h_max, so without it a 7 ms segment can never last 20 ms."""
     specs: list[SegmentSpec] = []
     items = list(plan.items)
     for i, item in enumerate(items):
@@ -81,7 +86,7 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB) -> 
         dur = item.n * item.h + item.tau
         # one interval of headroom: a segment's duration is bounded by n_int n_sub h_max
         # (the RK4 step bound), and short segments (phase I lasts ~4 ms) must be free to grow
-        n_int = int(math.ceil(dur / (n_sub * h))) + 1
+        n_int = int(math.ceil((dur + headroom_s) / (n_sub * h))) + 1
         specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
                                  dur))
     return specs
@@ -97,7 +102,7 @@ class ShootingNLP:
 
     def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
                  sample_stride: int = 1, hs: HybridSystem | None = None,
-                 transversality: float = 0.5):
+                 transversality: float = 0.5, headroom_s: float = 0.0):
         self.problem = problem
         self.sim = Simulator(problem, hs)
         self.hs = hs = self.sim.hs
@@ -112,7 +117,7 @@ class ShootingNLP:
         run = self.sim.run(x0, self.p0, steps=1, record=False)
         if run.failure is not None or run.completed_steps < 1:
             raise ValueError(f"the starting gait fails: {run.failure}")
-        self.specs = segments_from_plan(hs, run.steps[0].plan, self.h, n_sub)
+        self.specs = segments_from_plan(hs, run.steps[0].plan, self.h, n_sub, headroom_s)
         self.param_names = list(problem.parameter_names)
         self.free = [n for n in self.param_names if n in free]
         self._build()

@@ -70,7 +70,7 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
     for rnd in range(opts.rounds):
         try:
             nlp = ShootingNLP(problem, x, p, free=free, sample_stride=opts.sample_stride,
-                              hs=sim.hs)
+                              hs=sim.hs, headroom_s=opts.segment_headroom_s)
         except ValueError as exc:
             notes.append(f"start {s} round {rnd}: {exc}")
             log(notes[-1])
