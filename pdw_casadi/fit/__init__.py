@@ -1,0 +1,20 @@
+"""Fitting a walker's compliance and stable periodic gait to human curves.
+
+- :mod:`.options`: :class:`FitOptions`, every setting;
+- :mod:`.objective`: 1 - R^2 on the multiple-shooting grid;
+- :mod:`.stability`: the stability row (spectral-radius bound of the NLP step, exact gradient);
+- :mod:`.driver`: the IPOPT driver and its progress lines;
+- :mod:`.starts`: the gait atlas and the choice of starts;
+- :mod:`.result`: solves, candidates, checks;
+- :mod:`.core`: :func:`fit_gait`.
+"""
+
+from .core import RefitCorrector, check_targets, fit_gait
+from .objective import CurveError
+from .options import FitOptions
+from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score
+from .stability import RADIUS_NORM, StabilityRow, smooth_radius
+
+__all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
+           "RefitCorrector", "Solve", "StabilityRow", "check_targets", "evaluate_gait",
+           "fit_gait", "mean_score", "smooth_radius"]

@@ -1,0 +1,138 @@
+"""Build a walker's gait atlas: stable, valid interior fixed points to start fits from.
+
+No human data goes in.
+
+- **Seeds**: the stable gait (simulator rho <= ``radius``) whose knee and hip curves are
+  closest (R^2) to those of the problem's own gait, or to a deformation of them (knee
+  amplitude, hip offset: :data:`VARIANTS`), found by the fit itself with those curves as
+  the target; a smaller ``radius`` gives a seed further inside the stable region.
+- **Spread**: from every seed, natural-parameter continuation in each compliance value
+  alone (multiplicative steps of ``step``, up to ``steps`` each way, Newton warm-started
+  from the previous point), keeping every stable (rho <= ``keep_radius``), valid point;
+  a direction ends at its first failure.
+
+Entries are stored with their curves, so a fit can rank them on the user's curves.
+
+    python -m pdw_casadi.fit.atlas --problem humanlike_6link
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+
+from ..curves import gait_cycle
+from ..fixed_point import find_fixed_point
+from ..gait_data import load_gait_curves
+from ..problem import load_problem
+from ..simulate import Simulator
+from .core import fit_gait
+from .options import FitOptions
+from .starts import AtlasEntry, atlas_path, save_atlas
+
+
+def own_curves(problem) -> pd.DataFrame:
+    """The 101-point knee/hip/thigh curves of the problem's own fixed point (deg)."""
+    fp = find_fixed_point(problem)
+    if not fp.converged:
+        raise ValueError(f"{problem.name}: its own parameters have no fixed point")
+    sim = Simulator(problem)
+    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    return gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+
+
+#: deformations of the walker's own curves that the variants are fitted to:
+#: (label, knee amplitude factor about its mean, hip offset in deg)
+VARIANTS = (("own", 1.0, 0.0), ("knee0.85", 0.85, 0.0), ("knee1.15", 1.15, 0.0),
+            ("hip-4", 1.0, -4.0), ("hip+4", 1.0, 4.0))
+
+
+def _target(c: pd.DataFrame, knee: float, hip: float):
+    kd = c.knee_deg.to_numpy()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "target.csv"
+        pd.DataFrame({"cycle_pct": c.cycle_pct, "hip_mean_deg": c.hip_deg + hip,
+                      "knee_mean_deg": kd.mean() + knee * (kd - kd.mean()),
+                      "thigh_mean_deg": c.thigh_deg + hip}).to_csv(path, index=False)
+        return load_gait_curves(path)
+
+
+def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS, log=print) -> list[AtlasEntry]:
+    """The seeds: per curve variant (the walker's own curves, deformed) and stability level
+    in ``radii``, the stable gait closest to them (see the module docstring)."""
+    c = own_curves(problem)
+    entries = []
+    for (name, knee, hip), r in ((v, r) for v in variants for r in radii):
+        target = _target(c, knee, hip)
+        res = fit_gait(problem, target, FitOptions(max_radius=r, atlas="", verbose=False),
+                       log=lambda m: None)
+        b = res.best
+        if b is None:
+            log(f"radius {r}: no stable valid gait ({res.notes})")
+            continue
+        label = f"{problem.name}-{name}-rho{r:.2f}"
+        entries.append(AtlasEntry(label, b.state, b.parameters, b.fixed_point.spectral_radius,
+                                  b.curves))
+        log(f"{label}: rho {b.fixed_point.spectral_radius:.4f}, R^2 to its target knee "
+            f"{b.scores['r2_knee']:.4f} hip {b.scores['r2_hip']:.4f}")
+    return entries
+
+
+def spread(problem, seeds: list[AtlasEntry], step: float = 1.15, steps: int = 4,
+           keep_radius: float = 0.88, log=print) -> list[AtlasEntry]:
+    """Continuation of every seed in each compliance value alone (see the module
+    docstring); the stable valid points found, seeds excluded."""
+    sim = Simulator(problem)
+    names = list(problem.parameter_names)
+    out = []
+    for seed in seeds:
+        for name in problem.compliance_names:
+            i = names.index(name)
+            lo, hi = problem.compliance_bounds.get(name, (-float("inf"), float("inf")))
+            for direction in (1, -1):
+                x, p = seed.state, seed.parameters.copy()
+                for n in range(1, steps + 1):
+                    p = p.copy()
+                    p[i] = seed.parameters[i] * step ** (direction * n)
+                    if not lo <= p[i] <= hi:
+                        break
+                    fp = find_fixed_point(problem, x, p, max_iter=20, fallback=False)
+                    if not (fp.converged and fp.stable and fp.valid
+                            and fp.spectral_radius <= keep_radius):
+                        break
+                    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+                    if one.failure is not None:
+                        break
+                    x = fp.state
+                    label = f"{seed.label}-{name}x{step ** (direction * n):.3f}"
+                    out.append(AtlasEntry(label, fp.state, fp.parameters, fp.spectral_radius,
+                                          gait_cycle(one.trajectory,
+                                                     sim.hs.model.heel_strike_phase)))
+        log(f"{seed.label}: {len(out)} entries so far")
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m pdw_casadi.fit.atlas",
+                                 description="Rebuild a walker's gait atlas.")
+    ap.add_argument("--problem", default="humanlike_6link")
+    ap.add_argument("--radius", type=float, nargs="+", default=[0.91, 0.86],
+                    help="stability levels of the seeds")
+    ap.add_argument("--out", type=Path, help="atlas file (default: the bundled one)")
+    args = ap.parse_args(argv)
+    problem = load_problem(args.problem)
+    seeds = build_atlas(problem, tuple(args.radius))
+    entries = seeds + spread(problem, seeds)
+    if not entries:
+        print("error: no entry", file=sys.stderr)
+        return 1
+    print(f"wrote {save_atlas(problem, entries, args.out or atlas_path(problem.name))}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""Every setting of the fit, in one place."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class FitOptions:
+    """Settings of :func:`~pdw_casadi.fit.fit_gait`.
+
+    Targets: ``hip_target`` "hip" (the paper's hip angle, thigh + slope) or "thigh" (thigh
+    from the gravity vertical, like-for-like with the human thigh column).
+
+    Stability: ``max_radius`` is the largest accepted spectral radius of the simulator's
+    Poincare map (the verdict); the NLP bounds its smooth bound rho_32 of its own step's
+    Jacobian by ``max_radius - radius_margin`` (rho_32 >= rho, so the verdict holds with
+    ``radius_margin`` to spare for the NLP's and the simulator's step sizes).
+
+    Starts: ``multistart`` atlas entries (stable gaits shipped with the package) with the
+    best R^2 on the curves; ``atlas`` a path to another atlas file (None: the bundled one;
+    ``""``: no atlas, start from the problem's own compliance).
+
+    IPOPT: ``max_iter``, ``tol``, ``hessian`` ("limited-memory": L-BFGS), ``ipopt`` extra
+    options. ``rounds``: NLP solves per start; a second one is built at the first answer
+    only when the objective's sample brackets moved (``consistency_tol``).
+    """
+
+    hip_target: str = "hip"
+    free_slope: bool = False
+    slope_bounds: tuple[float, float] = (0.05, 0.25)  # rad
+    free: tuple[str, ...] | None = None  # compliance names to fit (default: all)
+    max_radius: float = 0.91
+    radius_margin: float = 0.01
+    stability_constraint: bool = True
+    #: the stability row: "eigenvalues" (rho_32 of the eigenvalue moduli) or "power"
+    #: (||J^k||_F^(1/k), k = ``stability_power``: smooth where eigenvalues collide)
+    stability_bound: str = "eigenvalues"
+    stability_power: int = 64
+    multistart: int = 1
+    atlas: str | None = None
+    max_iter: int = 300
+    tol: float = 1e-6
+    hessian: str = "limited-memory"
+    rounds: int = 2
+    consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
+    sample_stride: int = 2  # RK4 samples between checked event signs and margins
+    #: every segment may grow this much (s) beyond its starting duration plus one interval
+    #: (its shooting intervals bound it); 0.015 s did not help WBDS20 and costs 14 % more
+    #: unknowns (measured on that one file)
+    segment_headroom_s: float = 0.0
+    resim_steps: int = 20  # steps of the re-simulation check
+    resim_tol: float = 1e-6  # largest accepted re-simulation deviation (rad, rad/s)
+    verbose: bool = True  # one progress line per IPOPT iteration
+    log_file: str | None = None  # the full IPOPT log (e.g. DIR/ipopt.log)
+    ipopt: dict = field(default_factory=dict)  # extra IPOPT options (override the defaults)
+
+    def targets(self) -> tuple[str, str]:
+        return ("knee", self.hip_target)

@@ -1,0 +1,109 @@
+"""What a fit returns: solves, checked candidates and the result, with the checks."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..curves import fit_scores, gait_cycle
+from ..fixed_point import FixedPointResult, find_fixed_point
+from ..simulate import Simulator
+from .options import FitOptions
+
+
+@dataclass
+class Solve:
+    """One IPOPT solve: status, iterations, wall time (s), objective (sum of 1 - R^2), the
+    simulator's spectral radius at its answer and the NLP's own bound rho_32 there."""
+
+    start: int
+    round: int
+    status: str
+    iterations: int
+    wall_time_s: float
+    objective: float
+    spectral_radius: float = float("nan")
+    nlp_radius_bound: float = float("nan")  # the NLP's stability row at its answer
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+@dataclass
+class Candidate:
+    """A fitted gait with its checks: fixed point (stability, validity), R^2, curves,
+    re-simulation deviation (rad, rad/s) of the NLP's section state over 20 steps."""
+
+    start: int
+    state: np.ndarray
+    parameters: np.ndarray
+    fixed_point: FixedPointResult
+    scores: dict
+    curves: pd.DataFrame
+    resimulation_deviation: float
+    objective: float
+    resim_tol: float = 1e-6
+
+    @property
+    def stable(self) -> bool:
+        return self.fixed_point.stable
+
+    @property
+    def valid(self) -> bool:
+        return self.fixed_point.valid and self.resimulation_deviation < self.resim_tol
+
+    def good(self, opts: FitOptions) -> bool:
+        """Stable with rho <= max_radius, valid, re-simulated."""
+        return self.stable and self.valid and \
+            self.fixed_point.spectral_radius <= opts.max_radius
+
+
+@dataclass
+class FitResult:
+    """The best fit, every start's outcome and the IPOPT solves."""
+
+    problem: object
+    best: Candidate | None
+    candidates: list[Candidate]
+    solves: list[Solve]
+    options: FitOptions
+    wall_time_s: float
+    targets: tuple[str, ...]
+    notes: list[str] = field(default_factory=list)
+
+    def starts_frame(self) -> pd.DataFrame:
+        rows = []
+        for c in self.candidates:
+            rows.append({"start": c.start, **c.scores, "objective": c.objective,
+                         "spectral_radius": c.fixed_point.spectral_radius,
+                         "stable": c.stable, "valid": c.valid,
+                         "resimulation_deviation": c.resimulation_deviation,
+                         "failure": c.fixed_point.failure})
+        return pd.DataFrame(rows)
+
+
+def mean_score(c: Candidate, targets) -> float:
+    """Mean R^2 of ``targets`` ("knee", "hip", "thigh") of a candidate: what fits rank by."""
+    return float(np.mean([c.scores[f"r2_{t}"] for t in targets]))
+
+
+def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
+                  resim_steps: int = 20, resim_tol: float = 1e-6) -> Candidate | None:
+    """Checks of a gait (x: section state, p: parameters): fixed point, stability, margins,
+    ``resim_steps``-step re-simulation deviation of x itself, curves and R^2 against
+    ``human``. None when the simulator finds no fixed point there."""
+    sim = sim or Simulator(problem)
+    run = sim.run(x, p, steps=resim_steps, record=False)
+    dev = float(np.abs(run.poincare_states - x).max()) if run.failure is None else math.inf
+    fp = find_fixed_point(problem, x, p, max_iter=15, fallback=False)
+    if not fp.converged:
+        return None
+    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    if one.failure is not None:
+        return None
+    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+    return Candidate(-1, fp.state, fp.parameters, fp, fit_scores(curves, human), curves, dev,
+                     float("nan"), resim_tol)
