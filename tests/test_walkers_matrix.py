@@ -97,12 +97,12 @@ def test_fittable_walkers():
     assert FITTABLE == ["humanlike_6link"]
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", FITTABLE)
 def test_fit_tiny(name, tmp_path, capsys):
     out = tmp_path / "fit"
-    code = _main(fit_main, ["--problem", name, "--gait", "female_fast.csv", "--max-iter", "25",
-                            "--rounds", "1", "--quiet", "--out", str(out)])
+    # from the problem's own compliance the 6-link fit converges in about 20 iterations
+    code = _main(fit_main, ["--problem", name, "--gait", "female_fast.csv", "--max-iter", "60",
+                            "--atlas", "none", "--rounds", "1", "--quiet", "--out", str(out)])
     assert code == 0, capsys.readouterr()
     for f in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md"):
         assert (out / f).exists(), f
