@@ -405,11 +405,11 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
     parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000), default=1,
                         metavar="N",
-                        help="start from the N gait-atlas entries whose curves fit best "
-                             "(default: %(default)s)")
+                        help="starts: the problem's own gait, then the N - 1 gait-atlas "
+                             "entries whose curves fit best (default: %(default)s)")
     parser.add_argument("--atlas", metavar="FILE",
-                        help="gait atlas to start from (default: the bundled one of the "
-                             "problem; 'none': start from the problem's own compliance)")
+                        help="gait atlas of the further starts (default: the bundled one "
+                             "of the problem; 'none': no atlas)")
     parser.add_argument("--free-slope", action="store_true",
                         help="let the slope be an unknown too (0.05..0.25 rad)")
     parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",

@@ -17,9 +17,9 @@ class FitOptions:
     Jacobian by ``max_radius - radius_margin`` (rho_32 >= rho, so the verdict holds with
     ``radius_margin`` to spare for the NLP's and the simulator's step sizes).
 
-    Starts: ``multistart`` atlas entries (stable gaits shipped with the package) with the
-    best R^2 on the curves; ``atlas`` a path to another atlas file (None: the bundled one;
-    ``""``: no atlas, start from the problem's own compliance).
+    Starts: the problem's own gait, then ``multistart - 1`` atlas entries (stable gaits
+    shipped with the package) with the best R^2 on the curves; ``atlas`` a path to another
+    atlas file (None: the bundled one; ``""``: no atlas).
 
     IPOPT: ``max_iter``, ``tol``, ``hessian`` ("limited-memory": L-BFGS), ``ipopt`` extra
     options. ``rounds``: NLP solves per start; a second one is built at the first answer
