@@ -66,6 +66,15 @@ def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
     return pd.DataFrame(out)
 
 
+def cycle_curves(sim, state, parameters) -> pd.DataFrame | None:
+    """The gait-cycle curves (:func:`gait_cycle`) of one step simulated from a fixed point
+    (``sim``: a :class:`~pdw_casadi.simulate.Simulator`); None if that step fails."""
+    one = sim.run(state, parameters, steps=1, record=True)
+    if one.failure is not None:
+        return None
+    return gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+
+
 def fit_scores(model: pd.DataFrame, human) -> dict:
     """R^2 of knee and hip (paper's definitions) and of the thigh (when the data has it)."""
     h = human.resample(len(model)) if len(human) != len(model) else human

@@ -142,7 +142,7 @@ def _gait_curves(source: str):
 def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
     """R^2 of the gait cycle of fixed point ``res`` against the gait file ``gait`` (NaN when
     the point is not a converged gait)."""
-    from .curves import fit_scores, gait_cycle
+    from .curves import cycle_curves, fit_scores
     from .simulate import Simulator
 
     human = _gait_curves(str(gait))
@@ -152,10 +152,8 @@ def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
     if not res.converged:
         return nan
     sim = Simulator(problem)
-    one = sim.run(res.state, res.parameters, steps=1, record=True)
-    if one.failure is not None:
-        return nan
-    return fit_scores(gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase), human)
+    curves = cycle_curves(sim, res.state, res.parameters)
+    return nan if curves is None else fit_scores(curves, human)
 
 
 def stable_ranges(table: pd.DataFrame, events: list[Event], parameter: str) -> list[dict]:

@@ -19,14 +19,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 import pandas as pd
 
-from ..curves import gait_cycle
+from ..curves import cycle_curves
 from ..fixed_point import find_fixed_point
-from ..gait_data import load_gait_curves
+from ..gait_data import GaitCurves
 from ..problem import load_problem
 from ..simulate import Simulator
 from .core import fit_gait
@@ -39,9 +38,10 @@ def own_curves(problem) -> pd.DataFrame:
     fp = find_fixed_point(problem)
     if not fp.converged:
         raise ValueError(f"{problem.name}: its own parameters have no fixed point")
-    sim = Simulator(problem)
-    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
-    return gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+    curves = cycle_curves(Simulator(problem), fp.state, fp.parameters)
+    if curves is None:
+        raise ValueError(f"{problem.name}: the step from its own fixed point fails")
+    return curves
 
 
 #: deformations of the walker's own curves that the variants are fitted to:
@@ -50,14 +50,13 @@ VARIANTS = (("own", 1.0, 0.0), ("knee0.85", 0.85, 0.0), ("knee1.15", 1.15, 0.0),
             ("hip-4", 1.0, -4.0), ("hip+4", 1.0, 4.0))
 
 
-def _target(c: pd.DataFrame, knee: float, hip: float):
+def _target(c: pd.DataFrame, knee: float, hip: float, name: str) -> GaitCurves:
+    """The curves ``c`` with the knee amplitude scaled about its mean and the hip offset."""
     kd = c.knee_deg.to_numpy()
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "target.csv"
-        pd.DataFrame({"cycle_pct": c.cycle_pct, "hip_mean_deg": c.hip_deg + hip,
-                      "knee_mean_deg": kd.mean() + knee * (kd - kd.mean()),
-                      "thigh_mean_deg": c.thigh_deg + hip}).to_csv(path, index=False)
-        return load_gait_curves(path)
+    frame = pd.DataFrame({"cycle_pct": c.cycle_pct, "hip_mean_deg": c.hip_deg + hip,
+                          "knee_mean_deg": kd.mean() + knee * (kd - kd.mean()),
+                          "thigh_mean_deg": c.thigh_deg + hip})
+    return GaitCurves(frame, Path(f"<{name}>"), name)
 
 
 def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
@@ -67,7 +66,7 @@ def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
     c = own_curves(problem)
     entries = []
     for (name, knee, hip), r in ((v, r) for v in variants for r in radii):
-        target = _target(c, knee, hip)
+        target = _target(c, knee, hip, name)
         res = fit_gait(problem, target, FitOptions(max_radius=r, atlas="", verbose=False),
                        log=lambda m: None)
         b = res.best

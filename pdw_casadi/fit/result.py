@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..curves import fit_scores, gait_cycle
+from ..curves import cycle_curves, fit_scores
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..simulate import Simulator
 from .options import FitOptions
@@ -101,9 +101,8 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
     fp = find_fixed_point(problem, x, p, max_iter=15, fallback=False)
     if not fp.converged:
         return None
-    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
-    if one.failure is not None:
+    curves = cycle_curves(sim, fp.state, fp.parameters)
+    if curves is None:
         return None
-    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
     return Candidate(-1, fp.state, fp.parameters, fp, fit_scores(curves, human), curves, dev,
                      float("nan"), resim_tol)

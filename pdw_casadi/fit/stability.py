@@ -256,7 +256,7 @@ class StabilityRow:
             for j in range(s.n_int):
                 a = np.concatenate([X[k][:, j], Z.ravel(order="F")])
                 out = fwd(a, h, p, mode, c)
-                zs.append((a,))
+                zs.append(a)
                 Z = out.reshape((nx, ns + 1), order="F")
             xe = X[k][:, -1]
             Zend = Z
@@ -341,7 +341,7 @@ class StabilityRow:
             Zb = np.ravel(Zb)
             adj = b.interval[s.phase][1]
             for j in range(s.n_int - 1, -1, -1):
-                a = zs[j][0]
+                a = zs[j]
                 ab, hb, pb, _, _ = adj(a, h, p, mode, c, Zb)
                 ab = np.ravel(ab)
                 g[o + nx * j: o + nx * (j + 1)] += ab[:nx]
