@@ -119,9 +119,10 @@ def _sens(hs: HybridSystem) -> _Sensitivities:
 class PoincareMap:
     """P(x, p) of a problem's walker: value, exact Jacobians, and a CasADi-function view."""
 
-    def __init__(self, problem):
+    def __init__(self, problem, hs: HybridSystem | None = None):
         self.problem = problem
-        self.hs = hybrid_system(problem)
+        # hs: another build of the walker (e.g. the per-leg one of pdw_casadi.stride)
+        self.hs = hs or hybrid_system(problem)
         self.sim = Simulator(problem, self.hs)
         self.state_names = self.hs.model.state_names
         self.parameter_names = self.hs.model.parameter_names
