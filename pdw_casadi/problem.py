@@ -377,6 +377,7 @@ def _split_legs(raw: Mapping, where: str, fam) -> tuple[dict, dict]:
     ``raw``; returns (raw without them, {side: {section: {key: value}}})."""
     raw = dict(raw)
     legs: dict[str, dict[str, dict[str, float]]] = {}
+    family = raw["walker"]["family"]
     for section in ("compliance", "anthropometry"):
         sec = raw.get(section)
         if not isinstance(sec, Mapping):
@@ -386,8 +387,8 @@ def _split_legs(raw: Mapping, where: str, fam) -> tuple[dict, dict]:
             continue
         per_leg = getattr(fam, "LEG_KEYS", {}).get(section)
         if per_leg is None:
-            raise ProblemError(f"{where}: the {fam.__name__.rsplit('.', 1)[-1]} walker has no "
-                               f"per-leg {section} ([{section}.{sides[0]}])")
+            raise ProblemError(f"{where}: the {family} walker has no per-leg {section} "
+                               f"([{section}.{sides[0]}])")
         sec = dict(sec)
         for side in sides:
             sub = sec.pop(side)
