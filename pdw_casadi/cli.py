@@ -283,15 +283,20 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         from .plots import plot_angles, plot_stick
         from .simulate import Simulator
 
-        sim = Simulator(problem)
+        if problem.asymmetric:  # legs differ: parameters alternate with the stance leg
+            from .stride import stride_simulator
+
+            sim, p_steps = stride_simulator(problem)
+        else:
+            sim, p_steps = Simulator(problem), None
         faces = walker_faces(problem, sim.hs)
-        p = problem.parameter_vector()
+        p = p_steps[0] if p_steps else problem.parameter_vector()
         out = outputs.create()
         with tqdm(total=args.steps, unit="step", desc="pdw-simulate", file=sys.stderr,
                   disable=args.steps < 10) as bar:
             result = sim.run(problem.state_vector(), p, steps=args.steps, record=True,
                              progress=lambda k: bar.update(k - bar.n),
-                             max_samples=MAX_SAMPLES)
+                             max_samples=MAX_SAMPLES, p_steps=p_steps)
         traj = result.trajectory
         if traj is None:
             import pandas as pd
@@ -339,6 +344,9 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
+    parser.add_argument("--stride", action="store_true",
+                        help="solve on the stride map (two steps, one per physical leg); "
+                             "always so when the problem's legs differ")
     args = parser.parse_args(argv)
     outputs = Outputs(args.out)
 
@@ -354,15 +362,26 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         out = outputs.create()
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
-        res = find_fixed_point(problem, tol=args.tol, verbose=True)
+        stride = args.stride or problem.asymmetric
+        if stride:  # the two-step map: parameters follow the physical legs
+            from .stride import StrideMap, find_stride_fixed_point
+
+            smap = StrideMap(problem)
+            res = find_stride_fixed_point(problem, tol=args.tol, smap=smap)
+        else:
+            res = find_fixed_point(problem, tol=args.tol, verbose=True)
         summary = res.to_dict()
         wall = summary.pop("wall_time_s", None)  # timings are not part of the result
         summary["distance_from_initial"] = float(
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
+        if stride:
+            summary["map"] = "stride (left-stance step, then right-stance step)"
+            if res.converged:
+                summary.update(_stride_outputs(smap, res, out, outputs))
         _write_json(outputs.wrote(out / "summary.json"), summary)
-        if res.converged:
+        if res.converged and not stride:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)
             plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
@@ -385,6 +404,29 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         return 0
 
     return run(outputs, body)
+
+
+def _stride_outputs(smap, res, out: Path, outputs) -> dict:
+    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``) and the
+    per-leg knee/hip curves in ``leg_curves.csv`` and ``leg_curves.png``."""
+    import pandas as pd
+
+    from .plots import plot_leg_curves
+    from .stride import stride_report
+
+    rep = stride_report(smap, res.state, res.parameters)
+    curves = rep.pop("curves")
+    frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
+    frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)
+    plot_leg_curves(curves, outputs.wrote(out / "leg_curves.png"),
+                    title=f"{smap.problem.name}: knee and hip per leg")
+    rep["step_spectral_radius_equivalent"] = float(np.sqrt(res.spectral_radius))
+    print(f"step length L/R {rep['legs']['left']['step_length_m']:.4f} / "
+          f"{rep['legs']['right']['step_length_m']:.4f} m "
+          f"(asymmetry {rep['step_length_asymmetry_pct']:+.3f} %), step time L/R "
+          f"{rep['legs']['left']['step_time_s']:.4f} / {rep['legs']['right']['step_time_s']:.4f}"
+          f" s (asymmetry {rep['step_time_asymmetry_pct']:+.3f} %)")
+    return {"stride": rep}
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:

@@ -413,3 +413,28 @@ def plot_sweep(table: pd.DataFrame, events, parameter: str, path,
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def plot_leg_curves(curves: dict, path=None, title: str | None = None, axes=None):
+    """Knee (left panel) and hip (right panel) angle (deg) over each physical leg's gait
+    cycle (%), one line per leg: ``curves`` = {"left": frame, "right": frame} from
+    :func:`pdw_casadi.stride.stride_report`. ``axes``: two matplotlib axes to draw on
+    (default: a new figure). Saved to ``path`` when given; returns the Figure."""
+    if axes is None:
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    else:
+        fig = axes[0].figure
+    for ax, name in zip(axes, ("knee", "hip"), strict=True):
+        for side, frame in curves.items():
+            ax.plot(frame["cycle_pct"], frame[f"{name}_deg"], lw=1.5,
+                    ls="-" if side == "left" else "--", label=f"{side} leg")
+        ax.set_xlabel("gait cycle of the leg (%)")
+        ax.set_ylabel(f"{name} angle (deg)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(Path(path), dpi=120)
+    return fig

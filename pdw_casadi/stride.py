@@ -157,12 +157,14 @@ class StrideMap(PoincareMap):
         sim = _merged(r1.sim, r2.sim)
         T = r1.step_time + r2.step_time
         if not jacobian:
-            return StrideResult(r2.x_next, None, None, T, None, None, sim, (r1, r2), (p1, p2))
+            return StrideResult(r2.x_next, None, None, T, None, None, sim, steps=(r1, r2),
+                                step_parameters=(p1, p2))
         dx = r2.dx @ r1.dx
         dp = r2.dx @ r1.dp + r2.dp @ self.Pi2
         dT_dx = r1.dT_dx + r2.dT_dx @ r1.dx
         dT_dp = r1.dT_dp + r2.dT_dx @ r1.dp + r2.dT_dp @ self.Pi2
-        return StrideResult(r2.x_next, dx, dp, T, dT_dx, dT_dp, sim, (r1, r2), (p1, p2))
+        return StrideResult(r2.x_next, dx, dp, T, dT_dx, dT_dp, sim, steps=(r1, r2),
+                            step_parameters=(p1, p2))
 
     def step_length(self, x_end, p_next) -> tuple[float, np.ndarray, np.ndarray]:
         """Length (m) of the step that ended in section state ``x_end`` (read from the
@@ -306,25 +308,24 @@ def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str 
     return pd.DataFrame(out)
 
 
-def simulate_strides(problem, strides: int = 1, state=None, theta=None) -> pd.DataFrame:
-    """Trajectory of ``strides`` strides from ``state`` (default: the problem's), with the
-    physical stance leg in column ``stance_leg`` and continuous time ``t`` (s). Raises
-    :class:`~pdw_casadi.poincare.PoincareError` when a step fails."""
+def stride_simulator(problem) -> tuple[Simulator, list[np.ndarray]]:
+    """A simulator of ``problem``'s walker and the step parameters to use in turn
+    (``Simulator.run(..., p_steps=...)``): step 0 with the left leg in stance, step 1 with
+    the right, and so on."""
     smap = problem if isinstance(problem, StrideMap) else StrideMap(problem)
-    theta = smap.default_parameters() if theta is None else np.asarray(theta, float)
-    ps = smap.step_parameters(theta)
-    sim = Simulator(smap.problem, smap.hs)
-    x = smap.problem.state_vector() if state is None else np.asarray(state, float)
-    mode, t0, frames = None, 0.0, []
-    for k in range(2 * strides):
-        res = sim.run(x, ps[k % 2], steps=1, record=True, mode=mode)
-        if res.failure is not None:
-            raise PoincareError(res.failure)
-        tr = res.trajectory.copy()
-        tr["t"] += t0
-        tr["step"] = k
-        tr["stance_leg"] = LEG_SIDES[k % 2]
-        frames.append(tr)
-        t0 += res.steps[0].step_time
-        x, mode = res.steps[0].x_section_end, res.final_mode
-    return pd.concat(frames, ignore_index=True)
+    return Simulator(smap.problem, smap.hs), list(smap.step_parameters(
+        smap.default_parameters()))
+
+
+def simulate_strides(problem, strides: int = 1, state=None) -> pd.DataFrame:
+    """Trajectory of ``strides`` strides from ``state`` (default: the problem's), with the
+    physical stance leg in column ``stance_leg``. Raises
+    :class:`~pdw_casadi.poincare.PoincareError` when a step fails."""
+    sim, ps = stride_simulator(problem)
+    x = sim.problem.state_vector() if state is None else np.asarray(state, float)
+    res = sim.run(x, ps[0], steps=2 * strides, record=True, p_steps=ps)
+    if res.failure is not None:
+        raise PoincareError(res.failure)
+    tr = res.trajectory
+    tr["stance_leg"] = np.where(tr["step"].to_numpy() % 2 == 0, LEG_SIDES[0], LEG_SIDES[1])
+    return tr
