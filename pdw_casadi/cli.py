@@ -728,7 +728,14 @@ COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "fixed-point": fixed_point_main,
     "fit": fit_main,
     "sweep": sweep_main,
+    "scale": lambda argv=None: _scale_main(argv),
 }
+
+
+def _scale_main(argv):
+    from .scaling import scale_main
+
+    return scale_main(argv)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

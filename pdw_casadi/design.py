@@ -24,6 +24,11 @@ import numpy as np
 from .poincare import PoincareError
 
 
+class PatternLost(RuntimeError):
+    """An extra condition cannot be evaluated: the gait left the event pattern it is
+    defined on (e.g. an expected event did not occur). Treated like a failed step."""
+
+
 @dataclass
 class DesignOptions:
     """Heuristics of the design Newton solve.
@@ -119,7 +124,7 @@ def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra |
                     if np.linalg.norm(Fn) < (1 - 1e-4 * alpha) * norm:
                         accepted = True
                         break
-                except PoincareError:
+                except (PoincareError, PatternLost):
                     pass
                 alpha *= 0.5
             if not accepted:
@@ -127,7 +132,7 @@ def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra |
             x, u, F, J = xn, un, Fn, Jn
         else:
             converged = float(np.linalg.norm(F)) < opt.tol
-    except PoincareError:
+    except (PoincareError, PatternLost):
         converged = False
     return DesignResult(x, theta_of(u), converged, history[-1] if history else float("nan"),
                         it, history, time.perf_counter() - t0)

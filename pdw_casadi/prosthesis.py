@@ -20,7 +20,16 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .design import DesignOptions, continue_design, symmetry_conditions
+import numpy as np
+
+from .design import (
+    DesignOptions,
+    PatternLost,
+    combined,
+    continue_design,
+    phase_time_conditions,
+    symmetry_conditions,
+)
 from .problem import Problem, ProblemError
 from .stride import (
     StrideMap,
@@ -72,12 +81,19 @@ class ProsthesisResult:
 
 
 def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str = "right",
-                      free: Sequence[str] = FREE, n_min: int = 10, min_step: float = 1e-3,
+                      free: Sequence[str] = FREE, hold_phase: str | None = "I",
+                      n_min: int = 10, min_step: float = 1e-3,
                       options: DesignOptions | None = None) -> ProsthesisResult:
     """Design the prosthetic leg's compliance (see the module docstring).
 
     ``problem``: the symmetric walker to start from; ``x0``: its periodic gait's section
-    state (default: the stride fixed point near the problem's initial state).
+    state (default: the stride fixed point near the problem's initial state). ``free``: the
+    prosthetic leg's compliance keys to design. ``hold_phase``: a phase whose duration is
+    held at its start value in both steps (default the 6-link walker's phase I, a few ms
+    long: where it shrinks to zero the trailing toe never lifts and the gait is lost);
+    None: symmetry conditions only. The result says how far the continuation got
+    (``reached``, ``path``): the gait may meet a gait-pattern boundary before the full
+    mass reduction.
     """
     t0 = time.perf_counter()
     if problem.asymmetric:
@@ -97,6 +113,10 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     length_scale = first.sim.steps[0].step_length / 2
     time_scale = first.step_time / 2
     extra = symmetry_conditions(smap, length_scale, time_scale)
+    if hold_phase is not None:  # keep clear of the boundary where that phase vanishes
+        d0 = first.steps[0].sim.steps[0].phases
+        held = sum(d for ph, d in d0 if ph == hold_phase)
+        extra = combined(extra, phase_time_conditions(smap, hold_phase, held, time_scale))
     idx = [[names.index(f"{side}.{k}")] for k in free]
     run = continue_design(smap, x0, theta0, theta1, idx, extra, n_min, min_step, opts)
     last = run.last
@@ -120,3 +140,42 @@ def lighter_mass(problem: Problem, side: str = "right") -> float:
     a, b = problem.leg_values(side)[1], problem.leg_values(other)[1]
     return float((a["m_s"] + a["m_f"]) / (b["m_s"] + b["m_f"]))
 
+
+
+def knee_release_conditions(smap, target_rad: float, scale_rad: float = 0.01):
+    """Extra conditions keeping the stance knee's spring release clear of grazing.
+
+    The stance knee disengages when its flexion falls through theta_dis while extending
+    (docs/model.md) and goes on extending a little until its rate changes sign (event
+    ``knee1_rate``). At the paper's gait that overshoot is only ~0.04 deg: a small change of
+    the body or compliance makes the flexion turn *above* theta_dis, the spring never
+    releases and the gait breaks (the centre of pressure runs to the toe). This holds the
+    overshoot theta_dis - theta_knee(at knee1_rate) at ``target_rad`` in both steps,
+    normalised by ``scale_rad``, with exact derivatives (the state at the located event
+    and its sensitivity, chained through the stride).
+    """
+    names = list(smap.hs.model.parameter_names)
+    i_dis = names.index("theta_dis@1")
+
+    def overshoot(r):
+        seen = False
+        for _ph, name, xe, dx, dp in r.event_states:
+            seen = seen or name == "knee1_disengage"
+            if seen and name == "knee1_rate":
+                # theta_1 = q2 - q1 (coordinates 1 and 0 of the full state)
+                return xe[1] - xe[0], dx[1] - dx[0], dp[1] - dp[0]
+        raise PatternLost("the stance knee spring did not release in the step")
+
+    def extra(r, x, theta):
+        r1, r2 = r.steps
+        p1, p2 = r.step_parameters
+        th1, g1x, g1p = overshoot(r1)
+        th2, g2x, g2p = overshoot(r2)
+        e = np.zeros(p1.size)
+        e[i_dis] = 1.0
+        v = np.array([p1[i_dis] - th1 - target_rad, p2[i_dis] - th2 - target_rad]) / scale_rad
+        vx = np.vstack([-g1x, -(g2x @ r1.dx)]) / scale_rad
+        vt = np.vstack([e - g1p, (e - g2p) @ smap.Pi2 - g2x @ r1.dp]) / scale_rad
+        return v, vx, vt
+
+    return extra
