@@ -81,17 +81,17 @@ class ProsthesisResult:
 
 
 def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str = "right",
-                      free: Sequence[str] = FREE, hold_phase: str | None = "I",
+                      free: Sequence[str] = FREE, hold_first_phase: bool = True,
                       n_min: int = 10, min_step: float = 1e-3,
                       options: DesignOptions | None = None) -> ProsthesisResult:
     """Design the prosthetic leg's compliance (see the module docstring).
 
     ``problem``: the symmetric walker to start from; ``x0``: its periodic gait's section
     state (default: the stride fixed point near the problem's initial state). ``free``: the
-    prosthetic leg's compliance keys to design. ``hold_phase``: a phase whose duration is
-    held at its start value in both steps (default the 6-link walker's phase I, a few ms
-    long: where it shrinks to zero the trailing toe never lifts and the gait is lost);
-    None: symmetry conditions only. The result says how far the continuation got
+    prosthetic leg's compliance keys to design. ``hold_first_phase``: hold the duration of
+    the walker's first phase at its start value in both steps (the 6-link walker's phase
+    I lasts a few ms: where it shrinks to zero the trailing toe never lifts and the gait is
+    lost); False: symmetry conditions only. The result says how far the continuation got
     (``reached``, ``path``): the gait may meet a gait-pattern boundary before the full
     mass reduction.
     """
@@ -113,10 +113,10 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     length_scale = first.sim.steps[0].step_length / 2
     time_scale = first.step_time / 2
     extra = symmetry_conditions(smap, length_scale, time_scale)
-    if hold_phase is not None:  # keep clear of the boundary where that phase vanishes
-        d0 = first.steps[0].sim.steps[0].phases
-        held = sum(d for ph, d in d0 if ph == hold_phase)
-        extra = combined(extra, phase_time_conditions(smap, hold_phase, held, time_scale))
+    if hold_first_phase:  # keep clear of the boundary where that phase vanishes
+        phase = smap.hs.phase_names[0]
+        held = sum(d for ph, d in first.steps[0].sim.steps[0].phases if ph == phase)
+        extra = combined(extra, phase_time_conditions(smap, phase, held, time_scale))
     idx = [[names.index(f"{side}.{k}")] for k in free]
     run = continue_design(smap, x0, theta0, theta1, idx, extra, n_min, min_step, opts)
     last = run.last

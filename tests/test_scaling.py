@@ -132,7 +132,7 @@ def test_prosthesis_design_makes_the_gait_symmetric():
     e = atlas["entries"][1]
     pb = load_problem("humanlike_6link").with_parameters(e["parameters"]).with_state(
         e["state"])
-    res = design_prosthesis(pb, lighter=0.004, hold_phase=None, n_min=2)
+    res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False, n_min=2)
     assert res.reached and res.fixed_point.converged and res.fixed_point.valid
     assert abs(lighter_mass(res.problem) - 0.996) < 1e-12
     assert abs(res.report["step_length_asymmetry_pct"]) < 1e-6

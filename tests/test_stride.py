@@ -177,3 +177,26 @@ def test_stride_map_of_a_point_foot_walker():
     fp = find_stride_fixed_point(pb, x0=step.state, tol=1e-12)
     assert fp.converged and np.abs(fp.state - step.state).max() < 1e-10
     assert abs(fp.spectral_radius - step.spectral_radius ** 2) < 1e-8
+
+
+def test_fixed_point_cli_on_an_asymmetric_problem(tmp_path, capsys):
+    import json
+
+    from pdw_casadi.cli import fixed_point_main
+
+    text = load_problem("humanlike_6link").source.read_text()
+    path = tmp_path / "asym.toml"
+    path.write_text(text + "\n[compliance.right]\nk_ankle = 5.15\nc_ankle = 0.83\n")
+    out = tmp_path / "fp"
+    assert fixed_point_main(["--problem", str(path), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] and summary["map"].startswith("stride")
+    legs = summary["stride"]["legs"]
+    total = legs["left"]["step_time_s"] + legs["right"]["step_time_s"]
+    assert abs(total - summary["step_time_s"]) < 1e-9  # the stride's time: both steps
+    asym = summary["stride"]["step_length_asymmetry_pct"]
+    want = 100 * (legs["left"]["step_length_m"] - legs["right"]["step_length_m"]) / (
+        0.5 * (legs["left"]["step_length_m"] + legs["right"]["step_length_m"]))
+    assert abs(asym - want) < 1e-12 and abs(asym) > 1e-3
+    curves = (out / "leg_curves.csv").read_text().splitlines()
+    assert len(curves) == 1 + 2 * 101 and (out / "leg_curves.png").stat().st_size > 0
