@@ -36,13 +36,17 @@ class DesignOptions:
     ``tol``: norm of all residuals to reach (rad, rad/s for the fixed point; the extra
     conditions in their own normalised units); ``max_iter``: Newton iterations;
     ``min_alpha``: smallest line-search step; ``max_rel_change``: largest |u| step per
-    iteration (a relative parameter change; keeps the linearisation honest).
+    iteration (a relative parameter change; keeps the linearisation honest). Continuation
+    (:func:`continue_design`): the step in lambda starts at 1/``n_min`` and halves on a
+    failed solve down to ``min_step``.
     """
 
     tol: float = 1e-10
     max_iter: int = 40
     min_alpha: float = 1e-4
     max_rel_change: float = 0.2
+    n_min: int = 10
+    min_step: float = 1e-3
 
 
 @dataclass
@@ -177,17 +181,19 @@ class PathResult:
 
 
 def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[int]],
-                    extra: Extra | None = None, n_min: int = 10, min_step: float = 1e-3,
+                    extra: Extra | None = None,
                     options: DesignOptions | None = None) -> PathResult:
     """Move the non-free parameters linearly from ``theta_start`` (lambda = 0, where
     ``x0`` should be a solution) to ``theta_end`` (lambda = 1), solving the design at each
     step (:func:`solve_design`) with the free values carried over from the last solution.
 
     Each step is predicted along the exact minimum-norm tangent of the design; the step
-    starts at 1/``n_min``, halves when a solve fails (down to ``min_step``) and doubles
-    again after a success (up to 1/``n_min``).
+    starts at 1/``options.n_min``, halves when a solve fails (down to
+    ``options.min_step``) and doubles again after a success (up to 1/``n_min``).
     """
     t0 = time.perf_counter()
+    options = options or DesignOptions()
+    n_min, min_step = options.n_min, options.min_step
     theta_start = np.asarray(theta_start, float)
     theta_end = np.asarray(theta_end, float)
     free_idx = sorted({i for idx in free for i in idx})

@@ -82,7 +82,6 @@ class ProsthesisResult:
 
 def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str = "right",
                       free: Sequence[str] = FREE, hold_first_phase: bool = True,
-                      n_min: int = 10, min_step: float = 1e-3,
                       options: DesignOptions | None = None) -> ProsthesisResult:
     """Design the prosthetic leg's compliance (see the module docstring).
 
@@ -118,7 +117,7 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
         held = sum(d for ph, d in first.steps[0].sim.steps[0].phases if ph == phase)
         extra = combined(extra, phase_time_conditions(smap, phase, held, time_scale))
     idx = [[names.index(f"{side}.{k}")] for k in free]
-    run = continue_design(smap, x0, theta0, theta1, idx, extra, n_min, min_step, opts)
+    run = continue_design(smap, x0, theta0, theta1, idx, extra, opts)
     last = run.last
     designed = with_physical_parameters(target, last.theta)
     designed = designed.replace(

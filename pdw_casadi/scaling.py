@@ -167,8 +167,8 @@ class SubjectResult:
 
 def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
                        reference: Problem | None = None, x_ref=None,
-                       adapt: Sequence[str] | None = ADAPTED, n_min: int = 10,
-                       min_step: float = 1e-3, tol: float = 1e-10) -> SubjectResult:
+                       adapt: Sequence[str] | None = ADAPTED,
+                       options=None) -> SubjectResult:
     """The reference walker moved onto a subject's body, with its periodic gait.
 
     1. The reference gait (``x_ref``, else the fixed point near the problem's state) is
@@ -180,7 +180,8 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
        ``adapt`` compliance values (both legs alike). The paper's gait is so sensitive to
        the body that at fixed compliance it is lost within a thousandth of that path; the
        compliance is what "adapts the walker to a weight and leg length". ``adapt=None``
-       keeps the compliance fixed (plain Newton continuation).
+       keeps the compliance fixed (plain Newton continuation). ``options``: the solver's
+       :class:`~pdw_casadi.design.DesignOptions` (tolerance, continuation steps).
     """
     from .design import DesignOptions, continue_design
     from .fixed_point import find_fixed_point
@@ -193,6 +194,8 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     )
 
     t0 = time.perf_counter()
+    opts = options or DesignOptions()
+    tol = opts.tol
     ref = reference or load_problem("humanlike_6link")
     if ref.asymmetric:
         raise ProblemError(f"{ref.name}: the reference body must be symmetric")
@@ -210,8 +213,7 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     theta0, theta1 = physical_parameter_vector(uni), physical_parameter_vector(target)
     pmap = PoincareMap(uni, hs)  # symmetric body: the step map of the per-leg walker
     free = [[names.index(f"{side}.{k}") for side in ("left", "right")] for k in (adapt or ())]
-    run = continue_design(pmap, scaled_state(x_ref, s), theta0, theta1, free, None, n_min,
-                          min_step, DesignOptions(tol=tol))
+    run = continue_design(pmap, scaled_state(x_ref, s), theta0, theta1, free, None, opts)
     last = run.last
     body = with_physical_parameters(uni, last.theta)
     body = body.replace(initial_state=dict(zip(uni.initial_state, last.state, strict=True)))

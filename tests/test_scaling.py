@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from pdw_casadi.design import continue_design
+from pdw_casadi.design import DesignOptions, continue_design
 from pdw_casadi.fixed_point import find_fixed_point
 from pdw_casadi.poincare import PoincareMap
 from pdw_casadi.problem import load_problem
@@ -116,7 +116,7 @@ def test_continuation_with_adapted_compliance(reference):
     for side in ("left", "right"):
         theta1[names.index(f"{side}.m_t")] *= 1.005
     free = [[names.index(f"{s}.{k}") for s in ("left", "right")] for k in ("k_ankle", "k_knee")]
-    run = continue_design(P, fp.state, theta0, theta1, free, n_min=2)
+    run = continue_design(P, fp.state, theta0, theta1, free, options=DesignOptions(n_min=2))
     assert run.reached
     th = run.last.theta
     assert abs(th[names.index("left.m_t")] - theta1[names.index("left.m_t")]) < 1e-12
@@ -132,7 +132,8 @@ def test_prosthesis_design_makes_the_gait_symmetric():
     e = atlas["entries"][1]
     pb = load_problem("humanlike_6link").with_parameters(e["parameters"]).with_state(
         e["state"])
-    res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False, n_min=2)
+    res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False,
+                             options=DesignOptions(n_min=2))
     assert res.reached and res.fixed_point.converged and res.fixed_point.valid
     assert abs(lighter_mass(res.problem) - 0.996) < 1e-12
     assert abs(res.report["step_length_asymmetry_pct"]) < 1e-6
