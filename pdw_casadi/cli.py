@@ -358,11 +358,11 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         from .plots import plot_limit_cycle
         from .simulate import Simulator
 
-        faces = walker_faces(problem)
+        stride = args.stride or problem.asymmetric
+        faces = None if stride else walker_faces(problem)
         out = outputs.create()
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
-        stride = args.stride or problem.asymmetric
         if stride:  # the two-step map: parameters follow the physical legs
             from .stride import StrideMap, find_stride_fixed_point
 
