@@ -141,6 +141,15 @@ def _tol(flag: str = "--tol") -> Callable[[str], float]:
     return parse
 
 
+def _one_leg_set(problem: Problem) -> None:
+    """Refuse (before any output) a problem whose legs differ, for commands that work on the
+    one-step map only."""
+    if problem.asymmetric:
+        raise UsageError(f"{problem.name}: its legs differ; this command works on walkers "
+                         f"with one set of values for both legs (pdw-simulate and "
+                         f"pdw-fixed-point solve asymmetric walkers on the stride map)")
+
+
 def load_cli_problem(args: argparse.Namespace) -> Problem:
     """The problem named by ``--problem`` with ``--compliance`` and ``--state`` applied.
 
@@ -479,6 +488,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     def body() -> int:
         human = _gait_file(args.gait)
         problem = load_cli_problem(args)
+        _one_leg_set(problem)
         if args.hip_target == "thigh" and human.thigh_deg is None:
             raise UsageError(f"--hip-target thigh needs a thigh column in the gait file "
                              f"{human.source} (it has none); use --hip-target hip")
@@ -633,6 +643,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             if args.param != "slope":
                 raise UsageError("--refit sweeps the slope (the compliance is refitted)")
         problem = load_cli_problem(args)
+        _one_leg_set(problem)
         if args.from_fit is not None:
             problem = load_fit_start(problem, args.from_fit)
         parameter_index(problem, args.param)  # an unknown name fails before any work

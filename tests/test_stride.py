@@ -200,3 +200,17 @@ def test_fixed_point_cli_on_an_asymmetric_problem(tmp_path, capsys):
     assert abs(asym - want) < 1e-12 and abs(asym) > 1e-3
     curves = (out / "leg_curves.csv").read_text().splitlines()
     assert len(curves) == 1 + 2 * 101 and (out / "leg_curves.png").stat().st_size > 0
+
+
+def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
+    from pdw_casadi.cli import sweep_main
+
+    path = tmp_path / "asym.toml"
+    path.write_text(load_problem("humanlike_6link").source.read_text()
+                    + "\n[compliance.right]\nk_ankle = 5.15\n")
+    out = tmp_path / "sw"
+    with pytest.raises(SystemExit) as exc:
+        sweep_main(["--problem", str(path), "--param", "slope", "--from", "0.148",
+                    "--to", "0.149", "--num", "2", "--out", str(out)])
+    assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
+    assert not out.exists()
