@@ -12,8 +12,8 @@ disk. They share:
   ``--compliance`` and ``--out``;
 - :func:`load_cli_problem`: the problem with the ``--state`` / ``--compliance`` overrides
   applied (overrides obey the problem's ``compliance_bounds``);
-- :func:`_write_json`: JSON output with numpy scalars/arrays, paths and non-finite floats
-  (written as ``null``) handled.
+- :func:`pdw_casadi.jsonio.write_json`: JSON output with numpy scalars/arrays, paths and
+  non-finite floats (written as ``null``) handled.
 
 Adding a command: write ``foo_main(argv=None)`` that builds a :class:`Parser` with
 ``parents=[common_parser()]``, validates in a ``body()`` before ``outputs.create()`` and
@@ -49,7 +49,9 @@ from .cli_contract import (
     run,
     user_errors,
 )
-from .problem import Problem, ProblemError, check_bounds, load_overrides, load_problem
+from .errors import NoStartGait, ProblemError
+from .jsonio import write_json
+from .problem import Problem, check_bounds, load_overrides, load_problem
 
 __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]
@@ -68,35 +70,6 @@ TOL_RANGE = (1e-14, 1e-3)
 def _fail(message: object, code: int = 2) -> NoReturn:
     """Print ``error: <message>`` (one line) to stderr and exit with ``code``."""
     fail(message, code)
-
-
-def _jsonable(obj):
-    """``obj`` with numpy types, tuples, paths and non-finite floats made JSON-safe."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.bool_ | bool):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating | float):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "to_dict"):
-        return _jsonable(obj.to_dict())
-    return obj
-
-
-def _write_json(path: Path | str, data) -> Path:
-    """Write ``data`` as indented JSON (strict: NaN and inf become null)."""
-    path = Path(path)
-    path.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
-    return path
 
 
 def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
@@ -300,7 +273,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         traj.to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
         result.events.to_csv(outputs.wrote(out / "events.csv"), index=False)
         summary = simulation_summary(problem, result, args.steps)
-        _write_json(outputs.wrote(out / "summary.json"), summary)
+        write_json(outputs.wrote(out / "summary.json"), summary)
         plot_angles(traj, outputs.wrote(out / "angles.png"),
                     title=f"{problem.name}: joint angles", faces=faces)
         plot_stick(sim.hs, traj, p, outputs.wrote(out / "stick.png"), n=args.snapshots)
@@ -361,7 +334,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
-        _write_json(outputs.wrote(out / "summary.json"), summary)
+        write_json(outputs.wrote(out / "summary.json"), summary)
         if res.converged:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)
@@ -581,7 +554,6 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         import pandas as pd
 
         from .continuation import parameter_index
-        from .sweep import NoStartGait
 
         if args.start == args.stop:
             raise UsageError(f"--from and --to must differ, got {args.start:g} twice")
@@ -656,7 +628,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         summary = {**res.to_dict(), "problem": problem.name,
                    "compliance": dict(problem.compliance), "slope": problem.slope,
                    "units": {"slope": "rad", "time": "s", "length": "m", "speed": "m/s"}}
-        _write_json(outputs.wrote(out / "events.json"), summary)
+        write_json(outputs.wrote(out / "events.json"), summary)
         plot_sweep(res.table, res.events, args.param, outputs.wrote(out / "sweep.png"),
                    title=f"{problem.name}: sweep over {args.param}")
         table = res.table

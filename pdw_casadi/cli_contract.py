@@ -29,20 +29,10 @@ from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlsplit
 
-from .fit.objective import CurveError
-from .gait_data import GaitDataError
-from .problem import ProblemError
+from .errors import CurveError, GaitDataError, NoGait, ProblemError, UsageError
 
 #: exit codes of the contract
 EXIT_OK, EXIT_NO_GAIT, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class UsageError(ProblemError):
-    """Bad command-line input (exit code 2, one ``error:`` line)."""
-
-
-class NoGait(Exception):
-    """The command ran but found no gait; the message is the reason (exit code 1)."""
 
 
 #: exceptions that are the user's input, reported as ``error: ...`` with exit code 2

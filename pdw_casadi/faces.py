@@ -25,6 +25,9 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from .system import hybrid_system
+from .walkers import get_family
+
 #: phase shading colours, assigned in the model's phase order
 PALETTE = ("#d8e6f3", "#f4f4f4", "#f6e3cf", "#e0f0dc", "#efe0f3", "#f3f0d0")
 PALETTE_NAMES = ("blue", "grey", "orange", "green", "violet", "yellow")
@@ -91,9 +94,6 @@ class WalkerFaces:
 
 def walker_faces(problem, hs=None) -> WalkerFaces:
     """The faces of ``problem``'s walker (its hybrid system is built if not given)."""
-    from .system import hybrid_system
-    from .walkers import get_family
-
     hs = hs or hybrid_system(problem)
     model = hs.model
     fam = get_family(problem.family)

@@ -15,32 +15,20 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .curves import fit_scores, gait_cycle
 from .faces import walker_faces
-from .fit import Candidate, FitOptions, FitResult, check_targets, fit_gait, mean_score
-from .fixed_point import find_fixed_point
+from .fit import (
+    Candidate,
+    FitOptions,
+    FitResult,
+    check_targets,
+    fit_gait,
+    mean_score,
+    reference_gait,
+)
+from .jsonio import write_json
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
 from .simulate import Simulator
-
-
-def reference_gait(problem, human) -> dict:
-    """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
-    fp = find_fixed_point(problem)
-    out = {"problem": problem.name, "converged": fp.converged,
-           "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
-           "failure": fp.failure, "curves": None}
-    if not fp.converged:
-        return out
-    sim = Simulator(problem)
-    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
-    if one.failure is not None:
-        out["failure"] = one.failure.reason
-        return out
-    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
-    out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
-               step_length_m=fp.step_length_m)
-    return out
 
 
 def _scores(d: dict) -> dict:
@@ -176,7 +164,5 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
             f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
             f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
-    from .cli import _write_json
-
-    _write_json(out / "summary.json", summary)
+    write_json(out / "summary.json", summary)
     return summary

@@ -16,6 +16,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 
+import casadi as ca
 import numpy as np
 import pandas as pd
 
@@ -241,8 +242,6 @@ def _quiet_stderr():
 
 def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
     """IPOPT least squares min ||P(x) - x||^2 with the exact Jacobian (fallback)."""
-    import casadi as ca
-
     f = P.as_casadi()
     xs = ca.MX.sym("x", x.size)
     res = f(xs, ca.DM(p)) - xs

@@ -18,20 +18,14 @@ import casadi as ca
 import numpy as np
 
 from .compile import Lazy, LazyGroup
+from .errors import PoincareError
 from .hybrid import HybridSystem
+from .problem import Problem, load_problem
 from .simulate import Segment, SimulationResult, Simulator
 from .system import hybrid_system
 
 _SENS_CHUNKS = (32, 8, 1)
 
-
-class PoincareError(RuntimeError):
-    """The step from this state does not complete (the gait fails); ``failure`` says why."""
-
-    def __init__(self, failure):
-        super().__init__(f"step failed: {failure.reason} in phase {failure.phase} at "
-                         f"t = {failure.time:.4f} s")
-        self.failure = failure
 
 
 @dataclass
@@ -251,6 +245,4 @@ class _PoincareCallback(ca.Callback):
 
 def poincare_map(problem) -> PoincareMap:
     """The Poincare map of ``problem``'s walker (see :class:`PoincareMap`)."""
-    from .problem import Problem, load_problem
-
     return PoincareMap(problem if isinstance(problem, Problem) else load_problem(problem))

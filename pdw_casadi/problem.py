@@ -9,6 +9,7 @@ section state and numerical settings. Loading validates every key and value and 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import tomllib
 from collections.abc import Mapping
@@ -18,12 +19,9 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .errors import ProblemError
 from .resources import bundled_names, resolve
-
-
-class ProblemError(ValueError):
-    """A problem file or override is invalid (message names the file and key)."""
-
+from .walkers import FAMILIES, get_family
 
 #: numerical settings with their defaults (s, s)
 NUMERICS_DEFAULTS = {"step_size": 5e-4, "max_phase_time": 2.0}
@@ -176,8 +174,6 @@ def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
     The problem file's own values are checked when it is loaded; this applies the same
     limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids.
     """
-    from .walkers import get_family
-
     fam = get_family(problem.family)
     for k, v in values.items():
         if k == "slope":
@@ -216,8 +212,6 @@ def _section(raw: Mapping, where: str, name: str, required: list[str],
 
 
 def _check_values(pb: Problem, where) -> None:
-    from .walkers import get_family
-
     fam = get_family(pb.family)
     for k, v in pb.anthropometry.items():
         if k in fam.POSITIVE_KEYS and not v > 0:
@@ -267,8 +261,6 @@ def load_problem(name_or_path: str | Path) -> Problem:
 
 def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None = None) -> Problem:
     """Validate a parsed problem (same layout as the TOML file)."""
-    from .walkers import FAMILIES, get_family
-
     where = str(source or name)
     unknown = [k for k in raw if k not in _SECTIONS]
     if unknown:
@@ -348,8 +340,6 @@ def load_overrides(path: str | Path, what: str) -> dict[str, float]:
 def read_table(path: Path, what: str):
     """Parse a JSON or TOML file: by suffix (``.json`` / ``.toml``, any case), else JSON when
     the text parses as JSON, else TOML. Raises :class:`ProblemError` naming the file."""
-    import json
-
     p = Path(path)
     try:
         text = p.read_text()

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from .hybrid import FAILURE, GUARD, HybridSystem
+from .problem import Problem, load_problem
 from .system import hybrid_system
 
 TAU_TOL = 1e-13  # s, event-time tolerance of the Newton location
@@ -555,8 +556,6 @@ def simulate(problem, steps: int = 1, state=None, parameters=None, record: bool 
         parameters: compliance + slope vector; default: the problem's.
         record: keep the full trajectory DataFrame (off for speed in Newton / sweeps).
     """
-    from .problem import Problem, load_problem
-
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     sim = Simulator(problem)

@@ -41,14 +41,13 @@ from .continuation import (
     predict,
     with_value,
 )
+from .curves import cycle_curves, fit_scores
+from .errors import NoStartGait, ProblemError
 from .fixed_point import FixedPointResult
+from .gait_data import load_gait_curves
 from .parallel import map_tasks
-from .problem import Problem, ProblemError, check_bounds
-
-
-class NoStartGait(ProblemError):
-    """The sweep's start (the problem's own parameters and initial state) has no valid
-    fixed point: nothing to follow."""
+from .problem import Problem, check_bounds
+from .simulate import Simulator
 
 
 @dataclass(frozen=True)
@@ -134,17 +133,12 @@ def point_row(problem: Problem, parameter: str, point: BranchPoint, gait=None) -
 
 @functools.lru_cache(maxsize=4)
 def _gait_curves(source: str):
-    from .gait_data import load_gait_curves
-
     return load_gait_curves(source)
 
 
 def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
     """R^2 of the gait cycle of fixed point ``res`` against the gait file ``gait`` (NaN when
     the point is not a converged gait)."""
-    from .curves import cycle_curves, fit_scores
-    from .simulate import Simulator
-
     human = _gait_curves(str(gait))
     nan = {"r2_knee": math.nan, "r2_hip": math.nan}
     if human.thigh_deg is not None:

@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.cli import COMMANDS, _write_json, main, simulate_main
+from pdw_casadi.cli import COMMANDS, main, simulate_main
+from pdw_casadi.jsonio import write_json
 
 OUTPUTS = ("trajectory.csv", "events.csv", "summary.json", "angles.png", "stick.png")
 SUMMARY_KEYS = {"phases", "step_time_s", "step_length_m", "speed_m_s", "poincare_states",
@@ -91,7 +92,7 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
 
 
 def test_write_json_handles_numpy_and_non_finite(tmp_path):
-    path = _write_json(tmp_path / "x.json", {
+    path = write_json(tmp_path / "x.json", {
         "a": np.float64(1.5), "b": np.arange(3), "c": (np.int32(2), math.nan),
         "d": np.bool_(True), "e": float("inf"), "f": tmp_path})
     data = json.loads(path.read_text())

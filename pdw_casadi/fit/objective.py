@@ -15,12 +15,10 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..errors import CurveError
+
 #: fit target -> (model output stem, human column)
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
-
-
-class CurveError(ValueError):
-    """The curves cannot be fitted: the walker or the curve file lacks a target."""
 
 
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:

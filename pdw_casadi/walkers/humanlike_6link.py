@@ -14,6 +14,7 @@ import math
 
 import casadi as ca
 
+from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
@@ -49,8 +50,6 @@ PAPER_REPORTED_R2 = {"r2_knee": 0.891, "r2_hip": 0.899}
 
 def check_anthropometry(a, where) -> None:
     """Foot geometry must close: heel-to-ankle + ankle-to-toe = foot length."""
-    from ..problem import ProblemError
-
     if abs(a["l_ft"] + a["l_fh"] - a["l_f"]) > 1e-9:
         raise ProblemError(f"{where}: 'anthropometry.l_ft' + 'anthropometry.l_fh' must equal "
                            f"'anthropometry.l_f' ({a['l_ft']} + {a['l_fh']} != {a['l_f']})")

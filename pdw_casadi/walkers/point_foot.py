@@ -43,6 +43,7 @@ from types import SimpleNamespace
 
 import casadi as ca
 
+from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, Event, WalkerModel, make_phase, make_transition
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 
@@ -55,12 +56,6 @@ ARM = 0.01
 
 def _height(point, n):
     return ca.dot(point, n)
-
-
-def _problem_error():
-    from ..problem import ProblemError
-
-    return ProblemError
 
 
 def _ground(gamma):
@@ -171,7 +166,7 @@ def check_kneed_walker(a, where) -> None:
     """Inertias about the point masses must be >= 0 (the other values are positive)."""
     for k in ("J_s", "J_t"):
         if a[k] < 0:
-            raise _problem_error()(f"{where}: 'anthropometry.{k}' must be >= 0, got {a[k]}")
+            raise ProblemError(f"{where}: 'anthropometry.{k}' must be >= 0, got {a[k]}")
 
 
 def build_kneed_walker(problem) -> WalkerModel:
