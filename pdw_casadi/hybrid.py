@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 
 from .compile import Lazy
+from .margins import Margin, check_key, check_margin, output_margin, phase_key
 from .mechanics.planar import ContactSet, PlanarSystem
 
 GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
@@ -64,6 +65,9 @@ class Phase:
     lam: ca.SX
     events: list[Event] = field(default_factory=list)
     outputs: dict[str, ca.SX] = field(default_factory=dict)
+    #: validity margins among the outputs (name -> spec); None: by the naming rule of
+    #: :mod:`pdw_casadi.margins`
+    margins: dict[str, Margin] | None = None
 
     @property
     def guard(self) -> Event:
@@ -96,6 +100,9 @@ class Transition:
     relabel: tuple[ca.SX, ca.SX] | None = None
     ends_step: bool = False
     mode_after: Callable[[Mode], Mode | str] | None = None
+    #: validity margins among the checks (name -> spec); None: by the naming rule of
+    #: :mod:`pdw_casadi.margins`
+    margins: dict[str, Margin] | None = None
 
 
 def make_transition(system: PlanarSystem, name: str, source: str, target: str,
@@ -164,6 +171,11 @@ class HybridSystem:
         self.rhs, self.step, self.events, self.chunk, self.locate = {}, {}, {}, {}, {}
         self.outputs, self.output_names, self.event_list = {}, {}, {}
         self.event_jac, self.require = {}, {}
+        #: per phase / transition: (row, output or check name, Margin) of its validity
+        #: margins; ``margin_specs``: margins-table key -> Margin (see pdw_casadi.margins)
+        self.phase_margins: dict[str, list[tuple[int, str, Margin]]] = {}
+        self.check_margins: dict[str, list[tuple[int, str, Margin]]] = {}
+        self.margin_specs: dict[str, Margin] = {}
 
         def subs_x(expr):
             return ca.substitute(expr, ca.vertcat(q, qd), x[: 2 * self.nq])
@@ -198,6 +210,9 @@ class HybridSystem:
             out_vec = subs_x(ca.vertcat(*outs.values()))
             self.outputs[ph.name] = ca.Function(f"outputs_{ph.name}", [x, p, m], [out_vec])
             self.output_names[ph.name] = list(outs)
+            self.phase_margins[ph.name] = _declared(list(outs), ph.margins, output_margin)
+            self.margin_specs.update({phase_key(ph.name, name): mg
+                                      for _, name, mg in self.phase_margins[ph.name]})
             # K steps per call: the simulator's hot loop calls this, not the single step.
             # The events are needed at every step's end point, whose right-hand side is the
             # next step's first stage: one fused function gives both (shared subexpressions,
@@ -255,6 +270,10 @@ class HybridSystem:
                 f"impact_jac_{tr.name}", [x, p],
                 [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]))
         self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
+        for tr in model.transitions:
+            self.check_margins[tr.name] = _declared(list(tr.checks), tr.margins, check_margin)
+            self.margin_specs.update({check_key(tr.name, name): mg
+                                      for _, name, mg in self.check_margins[tr.name]})
         e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
         # Lazy: called a few times per step by the simulator (``.np``); ``(...)`` gives DMs
         self.energy = Lazy(ca.Function("energy", [x, p, m], [e], ["x", "p", "m"], ["E"]))
@@ -284,3 +303,14 @@ class HybridSystem:
             if e.indicator and i != skip:
                 mode[e.indicator] = 1.0 if gi > 0 else 0.0
         return mode
+
+
+def _declared(names: list[str], declared: dict[str, Margin] | None,
+              rule) -> list[tuple[int, str, Margin]]:
+    """(row, name, Margin) of the margins among ``names``: as declared, else by ``rule``."""
+    if declared is not None:
+        unknown = set(declared) - set(names)
+        if unknown:
+            raise ValueError(f"margins declared for unknown names {sorted(unknown)}")
+        return [(j, n, declared[n]) for j, n in enumerate(names) if n in declared]
+    return [(j, n, mg) for j, n in enumerate(names) if (mg := rule(n)) is not None]

@@ -18,9 +18,9 @@ the full states at every shooting node. Constraints (all exact, no smoothing):
 - the sign of every enabled event (guards, switches, failures) at the sampled RK4 states
   inside each segment: no event is crossed early (sampled: grazing between samples is caught
   by the re-simulation check of :mod:`pdw_casadi.fit`);
-- validity margins at the samples: contact normal forces ``N_*`` >= min_normal_force,
-  centre-of-pressure margins ``copmargin_*`` >= min_cop_margin, swing clearance
-  ``clearance_*`` >= min_clearance after 20 % of the phase (ramped from 0 at toe-off);
+- validity margins at the samples, as the walker declares them (:mod:`pdw_casadi.margins`):
+  contact normal forces >= min_normal_force, centre-of-pressure margins >= min_cop_margin,
+  swing clearance >= min_clearance after 20 % of the phase (ramped from 0 at toe-off);
   impact checks (impulses, post-impact velocities) > 0 and guard requirements > 0.
 
 Knee-spring engagement happens at its equilibrium angle by construction (the segment ends on
@@ -289,24 +289,16 @@ class ShootingNLP:
             # impact the contact forces jump)
             ts = self.sample_t[k]
             y0 = hs.outputs[s.phase](X[:, 0], p, mv)
-            for j, name in enumerate(onames[:e0]):
-                row = ca.horzcat(y0[j], Y[j, cols])
-                if name.startswith("N_"):
-                    add(row, v.get("min_normal_force", 0.0) + MARGIN_SLACK, ca.inf,
-                        f"margin[{k}]:{name}")
-                elif name.startswith("copmargin_"):
-                    add(row, v.get("min_cop_margin", 0.0) + MARGIN_SLACK, ca.inf,
-                        f"margin[{k}]:{name}")
-                elif name.startswith("clearance_"):
-                    # not at the start node: the toe leaves the ground there (height 0 by
-                    # the previous phase's contact), and a pinned row only degrades the KKT
-                    row = Y[j, cols]
-                    # the simulator's margin counts after 20 % of the phase; the demand ramps
-                    # up over 18-20 % so that it stays continuous in the durations
-                    frac = (ts[cols] - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
-                    ramp = ca.fmax(0, ca.fmin(1, 10 * frac - 9))
-                    need = (v.get("min_clearance", 0.0) + MARGIN_SLACK) * ramp
-                    add(row - need, 0, ca.inf, f"margin[{k}]:{name}")
+            for j, name, spec in hs.phase_margins[s.phase]:
+                need = spec.minimum(v) + MARGIN_SLACK
+                if spec.active_after <= 0:
+                    add(ca.horzcat(y0[j], Y[j, cols]), need, ca.inf, f"margin[{k}]:{name}")
+                    continue
+                # a margin that counts late in its phase (a swing foot's clearance) is not
+                # demanded at the start node: the foot leaves the ground there (height 0 by
+                # the previous phase's contact), and a pinned row only degrades the KKT
+                demand = spec.demand(ts[cols] - phase_start[s.phase], phase_len[s.phase], need)
+                add(Y[j, cols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
                 x_plus, _, chk, _ = hs.impact[s.transition](xe, p)

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from .hybrid import FAILURE, GUARD, HybridSystem
+from .margins import check_key, phase_key
 from .problem import Problem, load_problem
 from .system import hybrid_system
 
@@ -399,7 +400,7 @@ class Simulator:
                 ke_post = float(hs.energy.np(x_post, p, mv)[0, 0])
                 sr.impact_loss_J += ke[0] - ke_post
                 for name, v in zip(hs.check_names[tr.name], chk, strict=True):
-                    margins[f"{tr.name}:{name}"] = float(v)
+                    margins[check_key(tr.name, name)] = float(v)
                 bad = [n for n, v in zip(hs.check_names[tr.name], chk, strict=True) if v <= 0]
                 if bad:
                     failure = Failure(f"{tr.name}:{bad[0]}", k, t, phase,
@@ -461,14 +462,11 @@ class Simulator:
         return float(drift)
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
-        """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
-
-        Clearance counts after the first 20 % of the phase (the swing toe starts on the
-        ground at toe-off).
-        """
+        """Smallest value of each validity margin of a phase (contact forces in N, CoP
+        margins and clearances in m), over the samples its :class:`Margin` counts."""
         if rec is None:
             return
-        names = self.hs.output_names[phase]
+        specs = self.hs.phase_margins[phase]
         entries = rec[n_rec:]
         i = 0
         while i < len(entries):
@@ -481,15 +479,10 @@ class Simulator:
             X = np.hstack([e[3] for e in entries[i:j]])
             i = j
             out = self.hs.outputs[ph](X, p, mv).full()
-            late = ts >= t0 + 0.2 * dt
-            for j_, name in enumerate(names):
-                vals = out[j_]
-                if name.startswith("clearance_"):
-                    vals = vals[late]
-                elif not name.startswith(("N_", "copmargin_")):
-                    continue
+            for row, name, spec in specs:
+                vals = out[row][spec.counted(ts, t0, dt)]
                 if vals.size:
-                    key = f"{phase}:min_{name}"
+                    key = phase_key(phase, name)
                     margins[key] = float(min(vals.min(), margins.get(key, math.inf)))
 
     def _trajectory(self, rec, records, p) -> pd.DataFrame:
