@@ -18,6 +18,7 @@ import casadi as ca
 from .compile import Lazy
 from .margins import Margin, check_key, check_margin, output_margin, phase_key
 from .mechanics.planar import ContactSet, PlanarSystem
+from .rk4 import rk4
 
 GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
 
@@ -188,11 +189,10 @@ class HybridSystem:
             # products in M_q); merging them saves ~12 % of the operations, same values
             rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"],
                               CSE)
-            k1 = rhs(x, p, m)
-            k2 = rhs(x + h / 2 * k1, p, m)
-            k3 = rhs(x + h / 2 * k2, p, m)
-            k4 = rhs(x + h * k3, p, m)
-            x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            def f(y, rhs=rhs):
+                return rhs(y, p, m)
+
+            x_next = rk4(f, x, h)
             step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
                                ["x", "h", "p", "m"], ["xf"], CSE)
             g = subs_x(ca.vertcat(*[e.expr for e in ph.events]))
@@ -224,10 +224,7 @@ class HybridSystem:
                              CSE)
             z = ca.SX.sym("z", 2 * self.nx)
             xz, k1 = z[: self.nx], z[self.nx:]
-            k2 = rhs(xz + h / 2 * k1, p, m)
-            k3 = rhs(xz + h / 2 * k2, p, m)
-            k4 = rhs(xz + h * k3, p, m)
-            xn = xz + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            xn = rk4(f, xz, h, k1=k1)
             k1n, gn = fg(xn, p, m)
             fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
             acc = fsal.mapaccum(f"acc_{ph.name}", chunk_size, [0], [0])

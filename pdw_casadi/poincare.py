@@ -21,6 +21,7 @@ from .compile import Lazy, LazyGroup
 from .errors import PoincareError
 from .hybrid import HybridSystem
 from .problem import Problem, load_problem
+from .rk4 import rk4_sensitivities
 from .simulate import Segment, SimulationResult, Simulator
 from .system import hybrid_system
 
@@ -74,12 +75,7 @@ class _Sensitivities:
                 k, A, B = jac(xx, P, M)
                 return k, ca.mtimes(A, ss) + ca.mtimes(B, Sp)
 
-            k1, d1 = f(X, Sm)
-            k2, d2 = f(X + H / 2 * k1, Sm + H / 2 * d1)
-            k3, d3 = f(X + H / 2 * k2, Sm + H / 2 * d2)
-            k4, d4 = f(X + H * k3, Sm + H * d3)
-            Xn = X + H / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            Sn = Sm + H / 6 * (d1 + 2 * d2 + 2 * d3 + d4)
+            Xn, Sn = rk4_sensitivities(f, X, Sm, H)
             one = ca.Function(f"sens_{name}", [X, S, H, P, M],
                               [ca.vertcat(Xn, ca.reshape(Sn, -1, 1))])
             # partial step: also d x_next / d h (the flow at the event, for the saltation term)
