@@ -72,6 +72,21 @@ def _fail(message: object, code: int = 2) -> NoReturn:
     fail(message, code)
 
 
+def _parse(parser: argparse.ArgumentParser, argv) -> tuple[argparse.Namespace, Outputs]:
+    """The parsed arguments of a command and its output directory (not created yet)."""
+    args = parser.parse_args(argv)
+    return args, Outputs(args.out)
+
+
+def _parallel_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """--workers K and --scheduler ADDRESS (a Dask scheduler overrides --workers)."""
+    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
+                        metavar="K", help=f"processes for {what} (default: %(default)s)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help=f"Dask scheduler for {what} (e.g. tcp://host:8786); overrides "
+                             "--workers")
+
+
 def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     """Parent parser shared by every command: --problem, --state, --compliance, --out
     (required unless the command gives ``out_default``)."""
@@ -199,8 +214,6 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
         "failure": result.failure.to_dict() if result.failure else None,
         "steps": [s.to_dict() for s in result.steps],
         "margins": margins,
-        "units": {"angles": "rad", "rates": "rad/s", "time": "s", "length": "m",
-                  "energy": "J", "speed": "m/s"},
     }
 
 
@@ -242,8 +255,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--fps", type=int_range("--fps", 1, 100), default=25, metavar="F",
                         help="frames per simulated second of the animation, 1..100 (default: "
                              "%(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
@@ -255,6 +267,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         from .faces import walker_faces
         from .plots import plot_angles, plot_stick
         from .simulate import Simulator
+        from .units import summary_units, with_units
 
         sim = Simulator(problem)
         faces = walker_faces(problem, sim.hs)
@@ -270,9 +283,11 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             import pandas as pd
 
             traj = pd.DataFrame()
-        traj.to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
-        result.events.to_csv(outputs.wrote(out / "events.csv"), index=False)
+        with_units(traj, sim.hs).to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
+        with_units(result.events, sim.hs).to_csv(outputs.wrote(out / "events.csv"),
+                                                 index=False)
         summary = simulation_summary(problem, result, args.steps)
+        summary["units"] = summary_units(summary, sim.hs)
         write_json(outputs.wrote(out / "summary.json"), summary)
         plot_angles(traj, outputs.wrote(out / "angles.png"),
                     title=f"{problem.name}: joint angles", faces=faces)
@@ -312,8 +327,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
@@ -322,6 +336,8 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         from .fixed_point import find_fixed_point
         from .plots import plot_limit_cycle
         from .simulate import Simulator
+        from .system import hybrid_system
+        from .units import summary_units
 
         faces = walker_faces(problem)
         out = outputs.create()
@@ -334,6 +350,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
+        summary["units"] = summary_units(summary, hybrid_system(problem))
         write_json(outputs.wrote(out / "summary.json"), summary)
         if res.converged:
             sim = Simulator(problem)
@@ -397,15 +414,11 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
                         help="NLP solves per start: a further one is built at the answer only "
                              "when the objective's sample brackets moved (default: %(default)s)")
-    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
-                        help="processes for the multistart (default: 1)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="Dask scheduler for the multistart (e.g. tcp://host:8786)")
+    _parallel_arguments(parser, "the multistart")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         human = _gait_file(args.gait)
@@ -538,17 +551,11 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--refit", action="store_true",
                         help="refit the compliance to --gait at every point (a full pdw-fit "
                              "per point, warm-started from the neighbour; slow)")
-    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
-                        metavar="K", help="processes for independent work (default: "
-                                          "%(default)s)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="Dask scheduler address (e.g. tcp://host:8786); overrides "
-                             "--workers")
+    _parallel_arguments(parser, "independent work")
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| of every fixed point, in [{TOL_RANGE[0]:g}, "
                              f"{TOL_RANGE[1]:g}] (default: %(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         import pandas as pd
@@ -579,6 +586,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
 
         from .plots import plot_sweep
         from .sweep import SweepSettings, sweep
+        from .system import hybrid_system
+        from .units import Units
+
+        units = Units(hybrid_system(problem))
 
         corrector = None
         if args.refit:
@@ -604,7 +615,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             # lack some (a failed point has no margins) get empty cells
             if not columns:
                 columns.extend(row)
-            frame = pd.DataFrame([row]).reindex(columns=columns)
+            frame = units.frame(pd.DataFrame([row]).reindex(columns=columns))
             frame.to_csv(partial, mode="a", header=not partial.exists(), index=False)
             found[0] += 1
             note()
@@ -626,8 +637,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         outputs.notes.clear()
         outputs.wrote(csv_path)
         summary = {**res.to_dict(), "problem": problem.name,
-                   "compliance": dict(problem.compliance), "slope": problem.slope,
-                   "units": {"slope": "rad", "time": "s", "length": "m", "speed": "m/s"}}
+                   "compliance": dict(problem.compliance), "slope": problem.slope}
+        unit = units.of(args.param)  # grid, start and event values are in the parameter's
+        summary["units"] = {**units.summary(summary), "start_value": unit, "grid": unit,
+                            "events[].value": unit, "events[].bracket": unit}
         write_json(outputs.wrote(out / "events.json"), summary)
         plot_sweep(res.table, res.events, args.param, outputs.wrote(out / "sweep.png"),
                    title=f"{problem.name}: sweep over {args.param}")

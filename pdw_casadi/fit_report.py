@@ -29,6 +29,8 @@ from .jsonio import write_json
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
 from .simulate import Simulator
+from .system import hybrid_system
+from .units import summary_units
 
 
 def _scores(d: dict) -> dict:
@@ -81,6 +83,9 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
                            "human_hip_deg": h.hip_deg})
     if h.thigh_deg is not None:
         curves["human_thigh_deg"] = h.thigh_deg
+    for joint in ("knee", "hip", "thigh"):  # the human SD, as fit.png draws it
+        if getattr(h, f"{joint}_sd_deg", None) is not None:
+            curves[f"human_{joint}_sd_deg"] = getattr(h, f"{joint}_sd_deg")
     models, scores = {}, {}
     for label, d in (("fit", {"curves": cand.curves} if cand else {}),
                      ("table3", table3), ("comparison", comparison or {})):
@@ -118,12 +123,10 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
     summary["solver"] = solver
     if cand is not None:
         fp = cand.fixed_point
-        names_p = list(problem.parameter_names)
+        compliance, slope = problem.split_parameters(cand.parameters)
         summary.update(cand.scores)
         summary.update({
-            "compliance": dict(zip(names_p[:-1], map(float, cand.parameters[:-1]),
-                                   strict=True)),
-            "slope": float(cand.parameters[-1]),
+            "compliance": compliance, "slope": slope,
             "fixed_point": dict(zip(fp.state_names, map(float, cand.state), strict=True)),
             "eigenvalues": [[float(e.real), float(e.imag)] for e in fp.eigenvalues],
             "spectral_radius": fp.spectral_radius, "stable": bool(fp.stable),
@@ -164,5 +167,6 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
             f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
             f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
+    summary["units"] = summary_units(summary, hybrid_system(problem))
     write_json(out / "summary.json", summary)
     return summary

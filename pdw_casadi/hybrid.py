@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import casadi as ca
 
@@ -70,10 +71,6 @@ class Phase:
     #: :mod:`pdw_casadi.margins`
     margins: dict[str, Margin] | None = None
 
-    @property
-    def guard(self) -> Event:
-        return next(e for e in self.events if e.kind == GUARD)
-
 
 def make_phase(system: PlanarSystem, F_q, name: str, contact: ContactSet) -> Phase:
     """A phase with its constrained dynamics (eq. 12) solved; add events and outputs after."""
@@ -83,7 +80,9 @@ def make_phase(system: PlanarSystem, F_q, name: str, contact: ContactSet) -> Pha
 
 @dataclass
 class Transition:
-    """An instantaneous transition at the end of phase ``source`` (impact if ``impact``).
+    """An instantaneous transition at the end of phase ``source`` (impact if ``impact``),
+    taken when the phase ends on its guard event ``guard`` (None: the phase's only guard),
+    so that a phase with several guards may end in different transitions.
 
     ``qd_plus``/``impulse`` come from :meth:`PlanarSystem.impact`; ``checks`` are named
     margins in (q, qd, qd_plus) that must be > 0 for the assumed gait pattern; ``relabel`` =
@@ -101,6 +100,7 @@ class Transition:
     relabel: tuple[ca.SX, ca.SX] | None = None
     ends_step: bool = False
     mode_after: Callable[[Mode], Mode | str] | None = None
+    guard: str | None = None
     #: validity margins among the checks (name -> spec); None: by the naming rule of
     #: :mod:`pdw_casadi.margins`
     margins: dict[str, Margin] | None = None
@@ -132,7 +132,6 @@ class WalkerModel:
     m: ca.SX
     mode_keys: tuple[str, ...]
     initial_mode: Mode
-    F_q: ca.SX
     spring_energy: ca.SX
     damping_power: ca.SX
     phases: list[Phase]
@@ -150,6 +149,25 @@ class WalkerModel:
     #: the phase that begins at the swing leg's heel strike (gait-cycle start, docs/model.md);
     #: None: the step itself begins at leg 1's heel strike (point feet)
     heel_strike_phase: str | None = None
+
+
+class Impact(NamedTuple):
+    """The outputs of a transition's map (numpy arrays or CasADi expressions): the state
+    after it in the next phase's coordinates, the impulses (N s), the checks, and the
+    post-impact state before relabelling (same frame as the state before, for energies)."""
+
+    x_plus: object
+    impulse: object
+    checks: object
+    x_post: object
+
+
+class Energy(NamedTuple):
+    """Kinetic, potential and spring energy of a state (J)."""
+
+    kinetic: float
+    potential: float
+    spring: float
 
 
 class HybridSystem:
@@ -247,7 +265,13 @@ class HybridSystem:
             self.event_list[ph.name] = ph.events
 
         self.impact, self.impact_jac = {}, {}
-        self.transitions = {tr.source: tr for tr in model.transitions}
+        #: (phase, guard event name) -> the transition taken there
+        self.transitions: dict[tuple[str, str], Transition] = {}
+        for tr in model.transitions:
+            key = (tr.source, tr.guard or _only_guard(self.phases[tr.source]))
+            if key in self.transitions:
+                raise ValueError(f"two transitions leave phase {key[0]!r} at guard {key[1]!r}")
+            self.transitions[key] = tr
         for tr in model.transitions:
             chk = ca.vertcat(*tr.checks.values()) if tr.checks else ca.SX(0, 1)
             q_new, qd_new = q, tr.qd_plus
@@ -281,6 +305,19 @@ class HybridSystem:
             "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
         self.point_names = list(model.points)
 
+    # -- named outputs ---------------------------------------------------------------
+    def impact_at(self, transition: str, x, p) -> Impact:
+        """The map of ``transition`` at the pre-impact state ``x`` (numpy, flat arrays)."""
+        return Impact(*(v.ravel() for v in self.impact[transition].np(x, p)))
+
+    def impact_expr(self, transition: str, x, p) -> Impact:
+        """The map of ``transition`` on CasADi expressions (for the NLP)."""
+        return Impact(*self.impact[transition](x, p))
+
+    def energy_at(self, x, p, mv) -> Energy:
+        """The energies (J) of state ``x`` in mode vector ``mv``."""
+        return Energy(*map(float, self.energy.np(x, p, mv).ravel()))
+
     # -- mode helpers -------------------------------------------------------------------
     def mode_vector(self, mode: Mode) -> list[float]:
         return [float(mode[k]) for k in self.mode_keys]
@@ -311,3 +348,12 @@ def _declared(names: list[str], declared: dict[str, Margin] | None,
             raise ValueError(f"margins declared for unknown names {sorted(unknown)}")
         return [(j, n, declared[n]) for j, n in enumerate(names) if n in declared]
     return [(j, n, mg) for j, n in enumerate(names) if (mg := rule(n)) is not None]
+
+
+def _only_guard(phase: Phase) -> str:
+    """The name of the phase's one guard event (a transition that names none needs one)."""
+    guards = [e.name for e in phase.events if e.kind == GUARD]
+    if len(guards) != 1:
+        raise ValueError(f"phase {phase.name!r} has guards {guards}: its transitions must "
+                         f"name the guard they follow (Transition.guard)")
+    return guards[0]

@@ -84,6 +84,8 @@ NORMAL_FORCE = Margin(MarginKind.NORMAL_FORCE, "min_normal_force", "N")
 COP = Margin(MarginKind.COP, "min_cop_margin", "m")
 CLEARANCE = Margin(MarginKind.CLEARANCE, "min_clearance", "m", active_after=0.2)
 IMPULSE = Margin(MarginKind.IMPULSE, None, "N s")
+#: where an impulse acts on a foot, as a distance from the foot's end (must be > 0)
+IMPULSE_COP = Margin(MarginKind.IMPULSE, None, "m")
 
 #: the default naming rule: output-name prefix -> margin (phase outputs)
 OUTPUT_PREFIXES = (("N_", NORMAL_FORCE), ("copmargin_", COP), ("clearance_", CLEARANCE))

@@ -148,9 +148,8 @@ class PoincareMap:
         for item in plan.items:
             if isinstance(item, Segment):
                 x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
-            else:
-                name = item[1]
-                xp, Jx, Jp = hs.impact_jac[name].np(x, p)
+            else:  # a TransitionItem
+                xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
         J_out = np.asarray(sens.section_out(x))

@@ -74,12 +74,10 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
     starting duration (besides one interval of headroom): a segment's duration is bounded
     by n_int n_sub h_max, so without it a 7 ms segment can never last 20 ms."""
     specs: list[SegmentSpec] = []
-    items = list(plan.items)
-    for i, item in enumerate(items):
+    for i, item in enumerate(plan.items):
         if not isinstance(item, Segment):
             continue
-        nxt = items[i + 1] if i + 1 < len(items) else None
-        tr = nxt[1] if isinstance(nxt, tuple) and nxt[0] == "transition" else None
+        tr = plan.transition_after(i)
         ev = hs.event_list[item.phase][item.event]
         if ev.kind not in (GUARD, SWITCH):
             raise ValueError(f"plan segment ends on failure event {ev.name!r}")
@@ -194,7 +192,7 @@ class ShootingNLP:
                 cols.append(x)
             Xs.append(np.column_stack(cols))
             if s.transition is not None:
-                x = hs.impact[s.transition](x, p)[0].full().ravel()
+                x = hs.impact_at(s.transition, x, p).x_plus
         pf = [self.p0[self.param_names.index(n)] / sc for n, sc in zip(self.free, self.p_scale,
                                                                           strict=True)]
         T = [s.duration0 for s in self.specs]
@@ -301,7 +299,8 @@ class ShootingNLP:
                 add(Y[j, cols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
-                x_plus, _, chk, _ = hs.impact[s.transition](xe, p)
+                imp = hs.impact_expr(s.transition, xe, p)
+                x_plus, chk = imp.x_plus, imp.checks
                 if chk.shape[0]:
                     add(chk, 1e-9, ca.inf, f"impact_check[{s.transition}]")
                 if k + 1 < len(self.specs):

@@ -31,8 +31,10 @@ def test_simulate_writes_all_outputs(run_dir):
     for png in ("angles.png", "stick.png"):
         assert (run_dir / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     traj = pd.read_csv(run_dir / "trajectory.csv")
-    assert {"t", "phase", "q1", "dq1", "knee1_deg", "hip2_deg", "kinetic_J"} <= set(traj)
-    assert np.all(np.diff(traj["t"]) >= 0)
+    assert {"t_s", "phase", "q1_rad", "dq1_rad_s", "x_t1_m", "dx_t1_m_s", "knee1_deg",
+            "hip2_deg", "kinetic_J", "N_foot1_N", "cop_foot1_from_toe_m",
+            "clearance_toe2_m"} <= set(traj)
+    assert np.all(np.diff(traj["t_s"]) >= 0)
     events = pd.read_csv(run_dir / "events.csv")
     guards = events[events["kind"] == "guard"]["event"].tolist()
     assert guards == ["toe_off", "heel_strike", "foot_strike"]
@@ -98,3 +100,16 @@ def test_write_json_handles_numpy_and_non_finite(tmp_path):
     data = json.loads(path.read_text())
     assert data == {"a": 1.5, "b": [0, 1, 2], "c": [2, None], "d": True, "e": None,
                     "f": str(tmp_path)}
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_command_tells_its_version(command, capsys):
+    import tomllib
+    from pathlib import Path
+
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml")
+                              .read_text())
+    with pytest.raises(SystemExit) as exc:
+        COMMANDS[command](["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.split()[-1] == pyproject["project"]["version"]

@@ -11,18 +11,12 @@ from matplotlib.figure import Figure
 
 from pdw_casadi.gait_data import load_gait_curves
 from pdw_casadi.plots import plot_angles, plot_fit, plot_limit_cycle, plot_stick
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
 
 
 @pytest.fixture(scope="module")
-def walk():
-    problem = load_problem("compass_gait")
-    sim = Simulator(problem)
-    p = problem.parameter_vector()
-    res = sim.run(problem.state_vector(), p, steps=2, record=True)
-    assert res.failure is None
-    return sim.hs, res.trajectory, p
+def walk(compass_steps):
+    _, hs, p, res = compass_steps
+    return hs, res.trajectory, p
 
 
 def _renderer(fig):

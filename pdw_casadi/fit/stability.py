@@ -32,7 +32,7 @@ import casadi as ca
 import numpy as np
 
 from ..compile import LazyGroup, interpreted
-from ..hybrid import HybridSystem
+from ..hybrid import HybridSystem, Impact
 from ..rk4 import rk4_sensitivities
 
 RADIUS_NORM = 32  # q of the smooth spectral-radius bound
@@ -140,7 +140,7 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
     R = ca.SX.sym("R", nx, ns)
     vm: dict[str, ca.Function] = {}
     for tr in hs.model.transitions:
-        xp = hs.impact[tr.name].fun(x, p)[0]
+        xp = Impact(*hs.impact[tr.name].fun(x, p)).x_plus
         if tr.ends_step:
             out = model.full_to_section(xp)
             vm.update(_named(ca.Function(f"zlast_{tr.name}", [x, p, ca.vec(R)],

@@ -16,8 +16,10 @@ import casadi as ca
 
 from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
+from ..margins import IMPULSE, IMPULSE_COP
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
+from .registry import register
 
 ANTHROPOMETRY_KEYS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh",
                       "m_h", "m_t", "m_s", "m_f", "J_t", "J_s", "J_f")
@@ -63,6 +65,15 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
+@register(
+    "humanlike_6link",
+    description="The humanlike 6-link walker: flat feet, compliant ankles, engageable knees.",
+    anthropometry_keys=ANTHROPOMETRY_KEYS, compliance_keys=COMPLIANCE_KEYS,
+    state_keys=STATE_KEYS, positive_keys=POSITIVE_KEYS,
+    nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
+    phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
+    leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
+    comparison_problem=COMPARISON_PROBLEM, paper_reported_r2=PAPER_REPORTED_R2)
 def build(problem) -> WalkerModel:
     """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)
@@ -233,6 +244,8 @@ def build(problem) -> WalkerModel:
         "impulse_cop2_from_toe": -tau_imp / N_imp,
         "impulse_cop2_from_heel": lf + tau_imp / N_imp,
     }
+    foot.margins = {"impulse_toe1": IMPULSE, "impulse_foot2": IMPULSE,
+                    "impulse_cop2_from_toe": IMPULSE_COP, "impulse_cop2_from_heel": IMPULSE_COP}
     swap = list(SWAP)
     q_new = ca.vertcat(*[q[i] for i in swap], 0, 0)
     qd_new = ca.vertcat(*[qd[i] for i in swap], 0, 0)
@@ -284,7 +297,7 @@ def build(problem) -> WalkerModel:
     return WalkerModel(
         name=problem.name, system=sysm, p=p, m=m, mode_keys=MODE_KEYS,
         initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0},
-        F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
+        spring_energy=spring_energy, damping_power=damping_power,
         phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=STATE_KEYS, parameter_names=(*COMPLIANCE_KEYS, "slope"),
