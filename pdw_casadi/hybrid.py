@@ -305,6 +305,15 @@ class HybridSystem:
             "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
         self.point_names = list(model.points)
 
+    def rhs_jacobian(self, phase: str, x: ca.SX) -> ca.Function:
+        """(xdot, dxdot/dx, dxdot/dp) of a phase as one SX function of (x, p, m) (the
+        sensitivities of the Poincare map and of the shooting intervals chain it); ``x``:
+        the caller's state symbol."""
+        p, m = self.model.p, self.model.m
+        xdot = self.rhs[phase](x, p, m)
+        return ca.Function(f"rhs_jac_{phase}", [x, p, m],
+                           [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+
     # -- named outputs ---------------------------------------------------------------
     def impact_at(self, transition: str, x, p) -> Impact:
         """The map of ``transition`` at the pre-impact state ``x`` (numpy, flat arrays)."""

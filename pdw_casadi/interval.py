@@ -34,9 +34,7 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     nx, npar, nm = hs.nx, hs.np, hs.nm
     nz = nx + npar + 1  # z = (x0, p, h)
     x, p, m = ca.SX.sym("x", nx), model.p, model.m
-    xdot = hs.rhs[phase](x, p, m)
-    rhs_jac = ca.Function(f"rhs_jac_{phase}", [x, p, m],
-                          [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+    rhs_jac = hs.rhs_jacobian(phase, x)
     yv = ca.vertcat(hs.outputs[phase].fun(x, p, m), hs.events[phase].fun(x, p, m))
     ny = yv.shape[0]
     y_jac = ca.Function(f"y_jac_{phase}", [x, p, m],

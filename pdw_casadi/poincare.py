@@ -52,7 +52,7 @@ class _Sensitivities:
         nx, npar, nm = hs.nx, hs.np, hs.nm
         nz = ns + npar
         self.ns, self.nz = ns, nz
-        x, p, m = ca.SX.sym("x", nx), model.p, model.m
+        x, p = ca.SX.sym("x", nx), model.p
         xs = ca.SX.sym("xs", ns)
         x0 = model.section_to_full(xs, p)
         self.section = Lazy(ca.Function("section_jac", [xs, p], [
@@ -63,10 +63,8 @@ class _Sensitivities:
         Sp = ca.DM(ca.horzcat(ca.DM.zeros(npar, ns), ca.DM.eye(npar)))
         self.Sp = np.asarray(Sp)
         self.chunks, self.partial = {}, {}
-        for name, rhs in hs.rhs.items():
-            xdot = rhs(x, p, m)
-            jac = ca.Function(f"rhs_jac_{name}", [x, p, m],
-                              [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+        for name in hs.rhs:
+            jac = hs.rhs_jacobian(name, x)
             X, S = ca.MX.sym("X", nx), ca.MX.sym("S", nx * nz)
             H, P, M = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm)
             Sm = ca.reshape(S, nx, nz)
