@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import NamedTuple
 
 import casadi as ca
@@ -21,7 +22,16 @@ from .margins import Margin, check_key, check_margin, output_margin, phase_key
 from .mechanics.planar import ContactSet, PlanarSystem
 from .rk4 import rk4
 
-GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
+
+class EventKind(StrEnum):
+    """What crossing an event does: end the phase, switch the mode, end the simulation."""
+
+    GUARD = "guard"
+    SWITCH = "switch"
+    FAILURE = "failure"
+
+
+GUARD, SWITCH, FAILURE = EventKind.GUARD, EventKind.SWITCH, EventKind.FAILURE
 
 Mode = dict[str, float]
 CSE = {"cse": True}  # SX function option: merge repeated subexpressions
@@ -44,7 +54,7 @@ class Event:
     name: str
     expr: ca.SX
     direction: int
-    kind: str
+    kind: EventKind
     description: str = ""
     when: Callable[[Mode], bool] | None = None
     effect: Callable[[Mode, int], Mode] | None = None
