@@ -142,6 +142,7 @@ class WalkerModel:
     m: ca.SX
     mode_keys: tuple[str, ...]
     initial_mode: Mode
+    F_q: ca.SX  # generalized forces of eq. (12) (gravity, velocity terms, joint torques)
     spring_energy: ca.SX
     damping_power: ca.SX
     phases: list[Phase]

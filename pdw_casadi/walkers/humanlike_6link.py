@@ -297,7 +297,7 @@ def build(problem) -> WalkerModel:
     return WalkerModel(
         name=problem.name, system=sysm, p=p, m=m, mode_keys=MODE_KEYS,
         initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0},
-        spring_energy=spring_energy, damping_power=damping_power,
+        F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
         phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=STATE_KEYS, parameter_names=(*COMPLIANCE_KEYS, "slope"),

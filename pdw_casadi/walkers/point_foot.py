@@ -157,7 +157,7 @@ def build_compass_gait(problem) -> WalkerModel:
                                   [ca.vertcat(xf_[0], xf_[1], xf_[4], xf_[5])], ["x"], ["xs"])
     return WalkerModel(
         name=problem.name, system=sysm, p=p, m=m, mode_keys=(), initial_mode={},
-        spring_energy=ca.SX(0), damping_power=ca.SX(0),
+        F_q=F_q, spring_energy=ca.SX(0), damping_power=ca.SX(0),
         phases=[ph], transitions=[tr],
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=CG_STATE_KEYS, parameter_names=("slope",),
@@ -271,7 +271,7 @@ def build_kneed_walker(problem) -> WalkerModel:
         ["x"], ["xs"])
     return WalkerModel(
         name=problem.name, system=sysm, p=p, m=m, mode_keys=(), initial_mode={},
-        spring_energy=ca.SX(0), damping_power=ca.SX(0),
+        F_q=F_q, spring_energy=ca.SX(0), damping_power=ca.SX(0),
         phases=[ph_u, ph_l], transitions=[knee, heel],
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=KW_STATE_KEYS, parameter_names=("slope",),
