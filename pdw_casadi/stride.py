@@ -40,7 +40,7 @@ def per_leg_system(problem: Problem) -> HybridSystem | None:
     from .walkers import get_family
 
     fam = get_family(problem.family)
-    if not hasattr(fam, "build_per_leg"):
+    if fam.build_per_leg is None:
         return None
     key = (problem.family, problem.g)
     if key not in _PER_LEG:
@@ -53,9 +53,9 @@ def _layout(problem: Problem):
     from .walkers import get_family
 
     fam = get_family(problem.family)
-    comp = tuple(fam.COMPLIANCE_KEYS)
-    leg = tuple(fam.LEG_KEYS["anthropometry"])
-    shared = tuple(k for k in fam.ANTHROPOMETRY_KEYS if k not in leg)
+    comp = tuple(fam.compliance_keys)
+    leg = tuple(fam.leg_keys["anthropometry"])
+    shared = tuple(k for k in fam.anthropometry_keys if k not in leg)
     return comp, leg, shared
 
 

@@ -7,6 +7,7 @@ graph; only a different family, anthropometry or gravity does.
 from __future__ import annotations
 
 from .hybrid import HybridSystem
+from .walkers import get_family
 
 _CACHE: dict[tuple, HybridSystem] = {}
 
@@ -14,7 +15,6 @@ _CACHE: dict[tuple, HybridSystem] = {}
 def hybrid_system(problem) -> HybridSystem:
     """The :class:`HybridSystem` of ``problem``'s walker (cached across calls)."""
     from .problem import ProblemError
-    from .walkers import get_family
 
     if problem.asymmetric:
         # this walker has one set of values for both legs: silently using it would drop the

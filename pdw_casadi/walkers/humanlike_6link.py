@@ -14,9 +14,12 @@ import math
 
 import casadi as ca
 
+from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
+from ..margins import IMPULSE, IMPULSE_COP
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
+from .registry import register
 
 ANTHROPOMETRY_KEYS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh",
                       "m_h", "m_t", "m_s", "m_f", "J_t", "J_s", "J_f")
@@ -27,6 +30,10 @@ POSITIVE_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "l_fc")
 NONNEGATIVE_COMPLIANCE = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee",
                           "c_knee_stance")
 MODE_KEYS = ("eng1", "eng2", "flex1", "flex2", "armed2")
+#: the anthropometry of one physical leg (everything but the lumped hip mass)
+LEG_ANTHROPOMETRY_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "m_h")
+#: keys a problem may set per physical leg ([compliance.left], [anthropometry.right], ...)
+LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": LEG_ANTHROPOMETRY_KEYS}
 Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
 #: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
 SWAP = (3, 2, 1, 0, 5, 4)
@@ -49,8 +56,6 @@ PAPER_REPORTED_R2 = {"r2_knee": 0.891, "r2_hip": 0.899}
 
 def check_anthropometry(a, where) -> None:
     """Foot geometry must close: heel-to-ankle + ankle-to-toe = foot length."""
-    from ..problem import ProblemError
-
     if abs(a["l_ft"] + a["l_fh"] - a["l_f"]) > 1e-9:
         raise ProblemError(f"{where}: 'anthropometry.l_ft' + 'anthropometry.l_fh' must equal "
                            f"'anthropometry.l_f' ({a['l_ft']} + {a['l_fh']} != {a['l_f']})")
@@ -64,6 +69,16 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
+@register(
+    "humanlike_6link",
+    description="The humanlike 6-link walker: flat feet, compliant ankles, engageable knees.",
+    anthropometry_keys=ANTHROPOMETRY_KEYS, compliance_keys=COMPLIANCE_KEYS,
+    state_keys=STATE_KEYS, positive_keys=POSITIVE_KEYS,
+    nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
+    phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
+    leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
+    comparison_problem=COMPARISON_PROBLEM, paper_reported_r2=PAPER_REPORTED_R2,
+    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: build_per_leg(name, g))
 def build(problem) -> WalkerModel:
     """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)
@@ -71,14 +86,6 @@ def build(problem) -> WalkerModel:
     c = {k: p[i] for i, k in enumerate(COMPLIANCE_KEYS)}
     return _assemble(problem.name, problem.g, a, a, a["m_h"], c, c, p, p[-1],
                      (*COMPLIANCE_KEYS, "slope"))
-
-
-#: the anthropometry of one physical leg (everything but the lumped hip mass)
-LEG_ANTHROPOMETRY_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "m_h")
-
-
-#: keys a problem may set per physical leg ([compliance.left], [anthropometry.right], ...)
-LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": LEG_ANTHROPOMETRY_KEYS}
 
 
 def per_leg_parameter_names() -> tuple[str, ...]:
@@ -280,6 +287,8 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> Walker
         "impulse_cop2_from_toe": -tau_imp / N_imp,
         "impulse_cop2_from_heel": lf2 + tau_imp / N_imp,
     }
+    foot.margins = {"impulse_toe1": IMPULSE, "impulse_foot2": IMPULSE,
+                    "impulse_cop2_from_toe": IMPULSE_COP, "impulse_cop2_from_heel": IMPULSE_COP}
     swap = list(SWAP)
     q_new = ca.vertcat(*[q[i] for i in swap], 0, 0)
     qd_new = ca.vertcat(*[qd[i] for i in swap], 0, 0)
