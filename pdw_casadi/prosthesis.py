@@ -178,3 +178,24 @@ def knee_release_conditions(smap, target_rad: float, scale_rad: float = 0.01):
         return v, vx, vt
 
     return extra
+
+
+#: the stable gait of the bundled atlas the prosthesis examples start from (rho 0.83)
+START_ENTRY = "humanlike_6link-own-rho0.86"
+
+
+def atlas_problem(label: str = START_ENTRY) -> Problem:
+    """The 6-link problem at the compliance and section state of a bundled atlas entry
+    (data/atlas/humanlike_6link.json, :mod:`pdw_casadi.fit.atlas`), by its label."""
+    import json
+
+    from .problem import load_problem
+    from .resources import bundled_dir
+
+    atlas = json.loads((bundled_dir("data") / "atlas" / "humanlike_6link.json").read_text())
+    entry = next((e for e in atlas["entries"] if e["label"] == label), None)
+    if entry is None:
+        raise ProblemError(f"no atlas entry {label!r}; known: "
+                           f"{', '.join(e['label'] for e in atlas['entries'])}")
+    return load_problem(atlas["problem"]).with_parameters(entry["parameters"]).with_state(
+        entry["state"])

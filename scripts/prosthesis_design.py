@@ -1,8 +1,8 @@
 """Design a prosthetic leg's compliance: right shank and foot lighter, gait made symmetric.
 
-Starts from the stable gait of the bundled atlas (``--entry``, default 1: spectral radius
-0.83) and runs :func:`pdw_casadi.prosthesis.design_prosthesis`; prints how far the
-continuation got, the step lengths and times per leg with their asymmetry, the stride's
+Starts from a stable gait of the bundled atlas (``--entry``, default the walker's own gait
+at spectral radius 0.83) and runs :func:`pdw_casadi.prosthesis.design_prosthesis`; prints
+how far the continuation got, the step lengths and times per leg with their asymmetry, the stride's
 spectral radius, validity, the compliance found and the wall time. ``--out FILE.toml``
 writes the designed walker as a problem file (``pdw-fixed-point --problem FILE.toml``
 re-solves it on the stride map).
@@ -13,12 +13,9 @@ re-solves it on the stride map).
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.prosthesis import design_prosthesis, lighter_mass
-from pdw_casadi.resources import bundled_dir
+from pdw_casadi.prosthesis import START_ENTRY, atlas_problem, design_prosthesis, lighter_mass
 from pdw_casadi.scaling import problem_toml
 
 
@@ -26,21 +23,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lighter", type=float, default=0.3,
                     help="fraction by which the right shank and foot are lighter")
-    ap.add_argument("--entry", type=int, default=1, help="atlas entry to start from")
+    ap.add_argument("--entry", default=START_ENTRY,
+                    help="label of the atlas entry to start from (default: %(default)s)")
     ap.add_argument("--no-hold", action="store_true",
                     help="symmetry conditions only (do not hold the first phase's duration)")
     ap.add_argument("--out", help="write the designed walker to this TOML file")
     args = ap.parse_args(argv)
-    atlas = json.loads((bundled_dir("data") / "atlas" / "humanlike_6link.json").read_text())
-    e = atlas["entries"][args.entry]
-    base = load_problem("humanlike_6link").with_parameters(e["parameters"]).with_state(
-        e["state"])
+    base = atlas_problem(args.entry)
     t0 = time.perf_counter()
     res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
     took = time.perf_counter() - t0
     rep, fp = res.report, res.fixed_point
     legs = rep["legs"]
-    print(f"start: atlas entry {e['label']}; target: right shank+foot {100 * args.lighter:g} % "
+    print(f"start: atlas entry {args.entry}; target: right shank+foot {100 * args.lighter:g} % "
           f"lighter")
     print(f"reached lambda = {res.path[-1][0]:.4f} ({len(res.path)} points): right shank+foot "
           f"{100 * (1 - lighter_mass(res.problem)):.2f} % lighter; full target reached: "

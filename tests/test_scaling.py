@@ -3,7 +3,6 @@ prosthetic-leg design."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -13,7 +12,7 @@ from pdw_casadi.design import DesignOptions, continue_design
 from pdw_casadi.fixed_point import find_fixed_point
 from pdw_casadi.poincare import PoincareMap
 from pdw_casadi.problem import load_problem
-from pdw_casadi.prosthesis import design_prosthesis, lighter_mass
+from pdw_casadi.prosthesis import atlas_problem, design_prosthesis, lighter_mass
 from pdw_casadi.resources import bundled_dir
 from pdw_casadi.scaling import (
     DE_LEVA_1996,
@@ -128,10 +127,7 @@ def test_continuation_with_adapted_compliance(reference):
 def test_prosthesis_design_makes_the_gait_symmetric():
     """A slightly lighter right shank and foot: the designed right-leg compliance gives
     equal step lengths and times (exactly, to the solver tolerance) on a valid gait."""
-    atlas = json.loads((bundled_dir("data") / "atlas" / "humanlike_6link.json").read_text())
-    e = atlas["entries"][1]
-    pb = load_problem("humanlike_6link").with_parameters(e["parameters"]).with_state(
-        e["state"])
+    pb = atlas_problem()
     res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False,
                              options=DesignOptions(n_min=2))
     assert res.reached and res.fixed_point.converged and res.fixed_point.valid
