@@ -28,7 +28,8 @@ class Family:
     ``phase_descriptions``, ``limit_cycle_legs`` (per step, the coordinates of one physical
     leg's segments), ``leg_segments``, ``curve_joints``, ``instant_labels``,
     ``comparison_problem`` (a bundled problem the fit report compares with) and
-    ``paper_reported_r2``.
+    ``paper_reported_r2``; ``leg_keys`` and ``build_per_leg`` for walkers whose legs may
+    differ.
     """
 
     name: str
@@ -47,6 +48,11 @@ class Family:
     instant_labels: Mapping[str, str] = field(default_factory=dict)
     comparison_problem: str | None = None
     paper_reported_r2: Mapping[str, float] | None = None
+    #: per physical leg (pdw_casadi.stride): the keys a problem may set per leg
+    #: ({"compliance": ..., "anthropometry": ...}) and ``build_per_leg(name, g)``, the
+    #: walker with every body and compliance value a runtime parameter, leg by leg
+    leg_keys: Mapping[str, tuple[str, ...]] | None = None
+    build_per_leg: Callable | None = None
 
 
 _REGISTRY: dict[str, Family] = {}
