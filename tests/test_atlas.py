@@ -1,5 +1,6 @@
 """The bundled gait atlas: every entry is a stable, valid fixed point of its walker, and the
-fit picks its starts from it by R^2 on the user's curves."""
+fit picks its starts from it by R^2 on the user's curves, the most stable of the near-best
+first."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 
 from pdw_casadi.curves import fit_scores
 from pdw_casadi.fit import FitOptions
-from pdw_casadi.fit.starts import load_atlas, select_starts
+from pdw_casadi.fit.starts import Start, load_atlas, rank_starts, select_starts
 from pdw_casadi.fixed_point import find_fixed_point
 from pdw_casadi.gait_data import load_gait_curves
 
@@ -23,15 +24,35 @@ def test_every_atlas_entry_is_a_stable_valid_fixed_point(problem):
         assert abs(fp.spectral_radius - e.spectral_radius) < 1e-8, e.label
 
 
-def test_starts_are_the_atlas_entries_with_the_best_r2(problem):
+def test_starts_are_ranked_by_r2_on_the_users_curves_then_by_stability(problem):
     human = load_gait_curves("female_fast.csv")
     entries = load_atlas(problem)
-    starts = select_starts(problem, human, FitOptions(multistart=len(entries) + 1))
-    scores = [np.mean([fit_scores(e.curves, human.resample(101))[k]
-                       for k in ("r2_knee", "r2_hip")]) for e in entries]
-    assert starts[0].label == "problem"
-    assert [s.score for s in starts[1:]] == sorted(scores, reverse=True)
-    assert [s.label for s in select_starts(problem, human, FitOptions())] == ["problem"]
+    opts = FitOptions(multistart=len(entries) + 1)
+    starts = select_starts(problem, human, opts)
+    assert sorted(s.label for s in starts) == sorted(
+        ["problem"] + [f"atlas:{e.label}" for e in entries])
+    h = human.resample(101)
+    for e in entries:
+        st = next(s for s in starts if s.label == f"atlas:{e.label}")
+        r2 = fit_scores(e.curves, h)
+        assert st.score == np.mean([r2["r2_knee"], r2["r2_hip"]])
+        assert st.spectral_radius == e.spectral_radius
+    # the first start fits within the tolerance of the best and is the most stable of those
+    best = max(s.score for s in starts)
+    near = [s for s in starts if s.score >= best - opts.start_r2_tolerance]
+    assert starts[0].spectral_radius == min(s.spectral_radius for s in near)
+    assert starts == rank_starts(starts[::-1], opts.start_r2_tolerance)
+    assert [s.label for s in select_starts(problem, human, FitOptions())] == [starts[0].label]
+    assert [s.label for s in select_starts(problem, human, FitOptions(atlas=""))] == ["problem"]
+
+
+def test_rank_starts_is_by_score_alone_at_zero_tolerance_and_by_stability_alone_at_any():
+    z = np.zeros(1)
+    starts = [Start(f"s{i}", z, z, score, rho) for i, (score, rho) in
+              enumerate([(0.80, 0.70), (0.85, 0.88), (0.845, 0.83), (0.70, 0.60)])]
+    assert [s.label for s in rank_starts(starts, 0.0)] == ["s1", "s2", "s0", "s3"]
+    assert [s.label for s in rank_starts(starts, 1.0)] == ["s3", "s0", "s2", "s1"]
+    assert [s.label for s in rank_starts(starts, 0.01)] == ["s2", "s1", "s0", "s3"]
 
 
 def test_multistart_gives_identical_results_in_process_and_in_a_pool(problem, tmp_path):

@@ -24,26 +24,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..curves import cycle_curves
-from ..fixed_point import find_fixed_point
 from ..gait_data import GaitCurves, load_gait_curves
 from ..problem import load_problem
-from ..simulate import Simulator
 from .core import fit_gait
 from .options import FitOptions
-from .starts import AtlasEntry, atlas_path, save_atlas
-
-
-def own_curves(problem) -> pd.DataFrame:
-    """The 101-point knee/hip/thigh curves of the problem's own fixed point (deg)."""
-    fp = find_fixed_point(problem)
-    if not fp.converged:
-        raise ValueError(f"{problem.name}: its own parameters have no fixed point")
-    curves = cycle_curves(Simulator(problem), fp.state, fp.parameters)
-    if curves is None:
-        raise ValueError(f"{problem.name}: the step from its own fixed point fails")
-    return curves
-
+from .starts import AtlasEntry, atlas_path, own_gait, save_atlas
 
 #: deformations of the walker's own curves that the variants are fitted to:
 #: (label, knee amplitude factor about its mean, hip offset in deg)
@@ -65,7 +50,10 @@ def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
     """The seeds: per target (the walker's own curves and their ``variants``, then each of
     ``curves``) and stability level in ``radii``, the stable gait closest to the target (see
     the module docstring)."""
-    c = own_curves(problem)
+    gait = own_gait(problem)
+    if gait is None:
+        raise ValueError(f"{problem.name}: its own parameters have no gait")
+    c = gait[0]
     targets = [_target(c, knee, hip, name) for name, knee, hip in variants] + list(curves)
     entries = []
     for target, r in ((t, r) for t in targets for r in radii):

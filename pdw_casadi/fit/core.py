@@ -116,9 +116,10 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     """Fit ``problem``'s compliance (and slope with ``free_slope``) and periodic gait to
     ``human`` curves (:class:`~pdw_casadi.gait_data.GaitCurves`).
 
-    Starts: the ``multistart`` atlas entries closest to the curves (else the problem's own
-    gait), run on ``workers`` processes or a Dask ``scheduler`` when there are several
-    (identical results in any mode). ``best`` is the stable (rho <= max_radius), valid
+    Starts: the ``multistart`` gaits of the atlas and the problem's own whose curves fit
+    ``human`` best, the most stable first among near-equals (:func:`select_starts`), run on
+    ``workers`` processes or a Dask ``scheduler`` when there are several (identical results
+    in any mode). ``best`` is the stable (rho <= max_radius), valid
     candidate with the highest mean R^2 of the targets (None if no start gave one).
     """
     opts = options or FitOptions()

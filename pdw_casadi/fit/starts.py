@@ -3,13 +3,12 @@
 The paper's Table 3 gait sits within 0.01 % of a fold in k_knee, and random perturbations
 of its compliance have no fixed point; an NLP started there must first leave the fold.
 The atlas (``data/atlas/<problem>.json``, rebuilt by ``python -m pdw_casadi.fit.atlas``)
-holds stable, valid fixed points of a walker across compliance and slope, each with its
-gait-cycle curves. A fit starts from the problem's own gait and, with ``multistart`` N > 1,
-from the N - 1 entries whose curves already have the best mean R^2 on the user's curves.
-Measured on the five bench files: from the problem's own (Table-3) gait four of five
-converge in 10 to 17 s; from an atlas entry the same four or three, in 15 to 35 s, and which
-file fails depends on the entry (the entries' compliance is not unique along a flat
-direction of the curves), so the problem's own start comes first.
+holds stable, valid fixed points of a walker, each with its gait-cycle curves and spectral
+radius: gaits fitted to the walker's own curves and to the bundled cohort's curves, each at
+two stability levels. A fit starts from the gaits, among the atlas entries and the problem's
+own gait, whose curves already fit the user's best (mean R^2 of the targets), and of those
+within ``FitOptions.start_r2_tolerance`` of the best, from the one deepest inside the stable
+region (smallest spectral radius): the same curves from further away from the fold.
 """
 
 from __future__ import annotations
@@ -21,20 +20,23 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..curves import fit_scores
+from ..curves import cycle_curves, fit_scores
+from ..fixed_point import find_fixed_point
 from ..resources import bundled_dir
+from ..simulate import Simulator
 from .options import FitOptions
 
 
 @dataclass
 class Start:
-    """A starting gait: section state, parameters, where it came from, its R^2 on the
-    user's curves before fitting (NaN when not known)."""
+    """A starting gait: section state, parameters, where it came from, its mean R^2 on the
+    user's curves before fitting and its spectral radius (NaN when not known)."""
 
     label: str
     state: np.ndarray
     parameters: np.ndarray
     score: float = float("nan")
+    spectral_radius: float = float("nan")
 
 
 @dataclass
@@ -89,13 +91,37 @@ def save_atlas(problem, entries: list[AtlasEntry], path: str | Path) -> Path:
     return p
 
 
+def own_gait(problem) -> tuple[pd.DataFrame, float] | None:
+    """The 101-point knee/hip/thigh curves (deg) and the spectral radius of the problem's own
+    fixed point, or None when its own parameters have no gait."""
+    fp = find_fixed_point(problem)
+    if not fp.converged:
+        return None
+    curves = cycle_curves(Simulator(problem), fp.state, fp.parameters)
+    return None if curves is None else (curves, fp.spectral_radius)
+
+
+def rank_starts(starts: list[Start], r2_tolerance: float) -> list[Start]:
+    """``starts`` in the order a fit tries them: repeatedly, of the remaining starts whose
+    score is within ``r2_tolerance`` of the best remaining score, the one with the smallest
+    spectral radius (ties: the earlier in ``starts``)."""
+    left, order = list(starts), []
+    while left:
+        top = max(st.score for st in left)
+        near = [st for st in left if st.score >= top - r2_tolerance]
+        pick = min(near, key=lambda st: st.spectral_radius)
+        order.append(pick)
+        left.remove(pick)
+    return order
+
+
 def select_starts(problem, human, opts: FitOptions) -> list[Start]:
-    """The fit's ``multistart`` starts: the problem's own state and parameters, then the
-    atlas entries with the best mean R^2 of the targets on ``human`` (only entries that
-    agree with the problem in the parameters the fit holds fixed). ``atlas=""``: the
-    problem's own start only."""
+    """The fit's ``multistart`` starts, of the problem's own gait and the atlas entries that
+    agree with the problem in the parameters the fit holds fixed, in :func:`rank_starts`
+    order of their mean R^2 of the targets on ``human``. ``atlas=""``: the problem's own
+    start only."""
     own = Start("problem", problem.state_vector(), problem.parameter_vector())
-    if opts.atlas == "" or opts.multistart < 2:
+    if opts.atlas == "":
         return [own]
     entries = load_atlas(problem, opts.atlas)
     # an entry can start the fit only if it agrees with the problem in every parameter the
@@ -108,10 +134,15 @@ def select_starts(problem, human, opts: FitOptions) -> list[Start]:
     if not entries:
         return [own]
     h = human.resample(101)
-    scored = []
-    for e in entries:
-        s = fit_scores(e.curves, h)
-        scored.append((float(np.mean([s[f"r2_{t}"] for t in opts.targets()])), e))
-    scored.sort(key=lambda t: -t[0])
-    return [own] + [Start(f"atlas:{e.label}", e.state, e.parameters, score)
-                    for score, e in scored[: opts.multistart - 1]]
+
+    def score(curves: pd.DataFrame) -> float:
+        s = fit_scores(curves, h)
+        return float(np.mean([s[f"r2_{t}"] for t in opts.targets()]))
+
+    starts = [Start(f"atlas:{e.label}", e.state, e.parameters, score(e.curves),
+                    e.spectral_radius) for e in entries]
+    gait = own_gait(problem)
+    if gait is not None:
+        own.score, own.spectral_radius = score(gait[0]), gait[1]
+        starts.append(own)
+    return rank_starts(starts, opts.start_r2_tolerance)[: opts.multistart]
