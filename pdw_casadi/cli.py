@@ -191,6 +191,8 @@ def _check_curve_walker(problem: Problem, what: str):
 # --------------------------------------------------------------------------------------------
 def simulation_summary(problem: Problem, result, steps_requested: int | None = None) -> dict:
     """The summary.json content of a simulation (SI units; see :func:`simulate_main`)."""
+    from .timing import simulation_timing
+
     names = list(problem.state_names)
     done = [s for s in result.steps if s.x_section_end is not None]
     first = done[0] if done else None
@@ -226,9 +228,20 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
         "failure": result.failure.to_dict() if result.failure else None,
         "steps": [s.to_dict() for s in result.steps],
         "margins": margins,
+        "timing": _timing_or_none(lambda: simulation_timing(problem.family, result)),
         "units": {"angles": "rad", "rates": "rad/s", "time": "s", "length": "m",
                   "energy": "J", "speed": "m/s"},
     }
+
+
+def _timing_or_none(compute):
+    """Gait timing (:mod:`pdw_casadi.timing`), or None for a walker that declares none."""
+    from .timing import TimingError
+
+    try:
+        return compute()
+    except TimingError:
+        return None
 
 
 def _divergence(result) -> str | None:
@@ -245,7 +258,8 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     Writes to ``--out``: ``trajectory.csv`` (one row per integration step: time, step,
     phase, coordinates, velocities and outputs), ``events.csv`` (guards, mode switches,
     failure), ``summary.json`` (phases, step time/length, speed, Poincare states, residual
-    ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
+    ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope, timing
+    per step and per cycle of two steps: :mod:`pdw_casadi.timing`),
     ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
     walker over all steps (:mod:`pdw_casadi.animation`). A walker that falls is a result, not
     an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
@@ -329,7 +343,8 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
     Writes ``summary.json`` (fixed_point, residual, iterations, eigenvalues as [re, im],
     spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
-    failure, distance_from_initial; identical for identical runs) and ``limit_cycle.png``
+    failure, distance_from_initial, timing: stance/swing/double support %, cadence, gait
+    events, :mod:`pdw_casadi.timing`; identical for identical runs) and ``limit_cycle.png``
     (paper's Fig. 4); the wall time goes to stdout only. Exit code 1 when Newton (and its
     IPOPT fallback) found no fixed point.
     """
@@ -361,6 +376,11 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
+        if res.converged:
+            from .timing import fixed_point_timing
+
+            summary["timing"] = _timing_or_none(lambda: fixed_point_timing(
+                problem, res.state, res.parameters))
         _write_json(outputs.wrote(out / "summary.json"), summary)
         if res.converged:
             sim = Simulator(problem)

@@ -332,9 +332,12 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | Non
     return path
 
 
-def plot_fit(human, models: dict, path, scores: dict | None = None) -> Path:
+def plot_fit(human, models: dict, path, scores: dict | None = None,
+             markers: dict | None = None) -> Path:
     """The paper's Fig. 5: knee (a) and hip (b) over the gait cycle, human mean +/- SD and
-    one curve per model (deg against % of the cycle); R^2 in the legend when given."""
+    one curve per model (deg against % of the cycle); R^2 in the legend when given;
+    ``markers``: label -> % of the cycle, drawn as vertical lines (gait events; labels
+    starting with "human" dashed)."""
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     pct = human.cycle_pct
     for ax, name, mean, sd in ((axes[0], "knee", human.knee_deg, human.knee_sd_deg),
@@ -346,6 +349,11 @@ def plot_fit(human, models: dict, path, scores: dict | None = None) -> Path:
             r2 = (scores or {}).get(label, {}).get(f"r2_{name}")
             tag = f" (R$^2$ = {r2:.3f})" if r2 is not None else ""
             ax.plot(model["cycle_pct"], model[f"{name}_deg"], lw=1.5, label=label + tag)
+        for i, (label, pct_m) in enumerate((markers or {}).items()):
+            if pct_m is not None:
+                ax.axvline(pct_m, color=f"C{(i + 3) % 10}", lw=0.9, alpha=0.8,
+                           ls="--" if label.startswith("human") else ":",
+                           label=f"{label} ({pct_m:.1f} %)")
         ax.set_xlabel("gait cycle (%)")
         ax.set_ylabel(f"{name} angle (deg)")
         ax.grid(alpha=0.3)

@@ -39,6 +39,8 @@ PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
 LIMIT_CYCLE_LEGS = (("q1", "q2"), ("q4", "q3"))
 LEG_SEGMENTS = ("shank", "thigh")
 CURVE_JOINTS = ("knee", "hip")
+#: what touches the ground in each phase, (leg 1, leg 2): see pdw_casadi.timing
+PHASE_CONTACTS = {"I": ("flat", "toe"), "II": ("flat", None), "III": ("toe", "heel")}
 #: instants of the paper's Fig. 4: a (foot strike), b (toe-off), c (heel strike)
 INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c"}
 #: the paper's comparison walker [48] (point feet, locked stance knee), this anthropometry

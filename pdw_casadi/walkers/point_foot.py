@@ -279,6 +279,7 @@ FAMILY_COMPASS_GAIT = SimpleNamespace(
     Q_NAMES=CG_Q_NAMES,
     PHASE_DESCRIPTIONS={"swing": "stance foot pinned, swing leg free"},
     LIMIT_CYCLE_LEGS=(("q_st",), ("q_sw",)),
+    PHASE_CONTACTS={"swing": ("point", None)},
     LEG_SEGMENTS=("leg",),
     CURVE_JOINTS=("hip",),  # rigid legs: no knee
     INSTANT_LABELS={},
@@ -300,6 +301,7 @@ FAMILY_KNEED_WALKER = SimpleNamespace(
     PHASE_DESCRIPTIONS={"unlocked": "stance knee locked, swing knee free",
                         "locked": "both knees locked"},
     LIMIT_CYCLE_LEGS=(("q1", "q2"), ("q4", "q3")),
+    PHASE_CONTACTS={"unlocked": ("point", None), "locked": ("point", None)},
     LEG_SEGMENTS=("shank", "thigh"),
     CURVE_JOINTS=("knee", "hip"),
     INSTANT_LABELS={},
