@@ -439,6 +439,12 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         default=0.91, metavar="R",
                         help="largest accepted spectral radius, in (0, 1) "
                              "(default: %(default)s)")
+    parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0), nargs="?",
+                        const=1.0, default=0.0, metavar="W",
+                        help="also fit the timing: add W ((stance %% - human toe-off %%) / "
+                             "10 %%)^2 to the objective (human toe off: the gait file's "
+                             "toe_off_pct column, else 60 %%, Perry & Burnfield); R^2 is "
+                             "unchanged (default W when given: 1)")
     parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=300,
                         help="IPOPT iterations per solve (default: %(default)s)")
     parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
@@ -476,6 +482,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                           max_radius=args.max_radius, multistart=args.multistart,
                           atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
+                          timing_weight=args.timing,
                           verbose=not args.quiet)
         from .fit import check_targets
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-FAMILIES = ("humanlike_6link", "compass_gait", "kneed_walker")
+FAMILIES = ("humanlike_6link", "humanlike_6link_ankle", "compass_gait", "kneed_walker")
 
 
 def get_family(name: str) -> ModuleType:

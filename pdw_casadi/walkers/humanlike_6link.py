@@ -66,17 +66,24 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
-def build(problem) -> WalkerModel:
-    """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in)."""
+def build(problem, ext=None) -> WalkerModel:
+    """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in).
+
+    ``ext``: an extension of the passive elements (extra compliance keys, mode flags,
+    torque elements, events and mode rules at the transitions), e.g.
+    :data:`pdw_casadi.walkers.humanlike_6link_ankle.EXTENSION`; None: the paper's walker.
+    """
     a = dict(problem.anthropometry)
     q = ca.SX.sym("q", 8)
     qd = ca.SX.sym("qd", 8)
     q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
-    p = ca.SX.sym("p", len(COMPLIANCE_KEYS) + 1)
-    c = {k: p[i] for i, k in enumerate(COMPLIANCE_KEYS)}
+    comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
+    mode_keys = MODE_KEYS + (ext.mode_keys if ext else ())
+    p = ca.SX.sym("p", len(comp_keys) + 1)
+    c = {k: p[i] for i, k in enumerate(comp_keys)}
     gamma = p[-1]
-    m = ca.SX.sym("m", len(MODE_KEYS))
-    md = {k: m[i] for i, k in enumerate(MODE_KEYS)}
+    m = ca.SX.sym("m", len(mode_keys))
+    md = {k: m[i] for i, k in enumerate(mode_keys)}
     n = ca.vertcat(ca.sin(gamma), ca.cos(gamma))
     t_slope = ca.vertcat(ca.cos(gamma), -ca.sin(gamma))  # downhill along the ground
 
@@ -109,7 +116,9 @@ def build(problem) -> WalkerModel:
         free = md[f"flex{i}"] * c["c_knee_flex"] + (1 - md[f"flex{i}"]) * c["c_knee_ext"]
         return md[f"eng{i}"] * c["c_knee_stance"] + (1 - md[f"eng{i}"]) * free
 
-    ankle_law = spring_damper(c["k_ankle"], math.pi / 2, c["c_ankle"])
+    # an extension may shift the ankle spring's rest angle (foot perpendicular to the shank)
+    ankle_law = spring_damper(c["k_ankle"], math.pi / 2 + c.get("ankle_rest", 0.0),
+                              c["c_ankle"])
     elements = [
         JointTorque("ankle1", qf1, q1, ankle_law),
         JointTorque("ankle2", qf2, q4, ankle_law),
@@ -118,6 +127,8 @@ def build(problem) -> WalkerModel:
         JointTorque("knee2", q3, q4, engageable_spring_damper(
             md["eng2"], c["k_knee"], c["theta_eq"], knee_damping(2))),
     ]
+    if ext:
+        elements += ext.elements(c, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 
@@ -170,6 +181,8 @@ def build(problem) -> WalkerModel:
 
     fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
     common_events = [*knee_events(1, theta1, dtheta1), *knee_events(2, theta2, dtheta2), fall]
+    if ext:
+        common_events += ext.events(c, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
 
     # Phase I: leading foot flat, trailing toe pivot
     ph1 = make_phase(sysm, F_q, "I", contact_I)
@@ -248,6 +261,9 @@ def build(problem) -> WalkerModel:
                 "armed2": 0.0}
 
     foot.mode_after = after_foot_strike
+    if ext:
+        for tr in (toe_off, heel, foot):
+            tr.mode_after = ext.mode_rule(tr.name, tr.mode_after)
 
     # section state <-> full state
     xs = ca.SX.sym("xs", len(STATE_KEYS))
@@ -285,12 +301,13 @@ def build(problem) -> WalkerModel:
         "heel2_height_m": _height(heel2, n), "heel1_height_m": _height(heel1, n),
     }
     return WalkerModel(
-        name=problem.name, system=sysm, p=p, m=m, mode_keys=MODE_KEYS,
-        initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0},
+        name=problem.name, system=sysm, p=p, m=m, mode_keys=mode_keys,
+        initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0,
+                      **(ext.initial_mode if ext else {})},
         F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
         phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
         section_to_full=section_to_full, full_to_section=full_to_section,
-        state_names=STATE_KEYS, parameter_names=(*COMPLIANCE_KEYS, "slope"),
+        state_names=STATE_KEYS, parameter_names=(*comp_keys, "slope"),
         step_length=ca.dot(toe2 - toe1, t_slope), common_outputs=common, points=points,
         links=links, ground_normal=n, q_names=Q_NAMES, heel_strike_phase="III",
     )
