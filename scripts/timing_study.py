@@ -2,7 +2,7 @@
 double support, judged by the fit.
 
     python scripts/timing_study.py --out study [--gait female_fast.csv] [--timing]
-        [--problems humanlike_6link humanlike_6link_ankle_load ...]
+        [--only-timing] [--rounds 2] [--max-iter 300] [--problems humanlike_6link humanlike_6link_ankle_load ...]
 
 runs ``pdw-fit --gait GAIT --problem P --out OUT/P[_timing]`` for every problem (one after
 the other) and writes ``OUT/study.md`` and ``OUT/study.csv``: per fit the double support of
@@ -71,17 +71,23 @@ def main(argv=None) -> int:
     ap.add_argument("--problems", nargs="+", default=list(STUDY))
     ap.add_argument("--timing", action="store_true", help="also each fit with --timing")
     ap.add_argument("--rerun", action="store_true")
+    ap.add_argument("--rounds", default="2", help="pdw-fit --rounds (default: 2)")
+    ap.add_argument("--max-iter", default="300", help="pdw-fit --max-iter (default: 300)")
+    ap.add_argument("--only-timing", action="store_true",
+                    help="only the fits with --timing")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
     for name in args.problems:
         problem = str(ROOT / "problems" / f"{name}.toml")
-        for timing in ((False, True) if args.timing else (False,)):
+        kinds = (True,) if args.only_timing else (False, True) if args.timing else (False,)
+        for timing in kinds:
             label = name + ("_timing" if timing else "")
             out = args.out / label
             if args.rerun or not (out / "summary.json").exists():
                 cmd = ["pdw-fit", "--gait", args.gait, "--problem", problem, "--out", str(out),
-                       "--quiet", *(["--timing"] if timing else [])]
+                       "--quiet", "--rounds", args.rounds,
+                       "--max-iter", args.max_iter, *(["--timing"] if timing else [])]
                 print("$", " ".join(cmd), flush=True)
                 subprocess.run(cmd, check=False)
             if (out / "summary.json").exists():
