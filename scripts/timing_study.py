@@ -2,7 +2,8 @@
 double support, judged by the fit.
 
     python scripts/timing_study.py --out study [--gait female_fast.csv] [--timing]
-        [--only-timing] [--rounds 2] [--max-iter 300] [--problems humanlike_6link humanlike_6link_ankle_load ...]
+        [--only-timing] [--table-only] [--rounds 2] [--max-iter 300]
+        [--problems humanlike_6link humanlike_6link_ankle_load ...]
 
 runs ``pdw-fit --gait GAIT --problem P --out OUT/P[_timing]`` for every problem (one after
 the other) and writes ``OUT/study.md`` and ``OUT/study.csv``: per fit the double support of
@@ -75,6 +76,8 @@ def main(argv=None) -> int:
     ap.add_argument("--max-iter", default="300", help="pdw-fit --max-iter (default: 300)")
     ap.add_argument("--only-timing", action="store_true",
                     help="only the fits with --timing")
+    ap.add_argument("--table-only", action="store_true",
+                    help="run nothing: tabulate the fits already in OUT")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -84,7 +87,7 @@ def main(argv=None) -> int:
         for timing in kinds:
             label = name + ("_timing" if timing else "")
             out = args.out / label
-            if args.rerun or not (out / "summary.json").exists():
+            if not args.table_only and (args.rerun or not (out / "summary.json").exists()):
                 cmd = ["pdw-fit", "--gait", args.gait, "--problem", problem, "--out", str(out),
                        "--quiet", "--rounds", args.rounds,
                        "--max-iter", args.max_iter, *(["--timing"] if timing else [])]
