@@ -108,3 +108,19 @@ def test_curve_file_timing_columns_override_the_norms(tmp_path):
                                            phase_contacts("humanlike_6link"))})
     # toe off = 50 % + (0.01 + 0.02) / 1.06 of the cycle, beside the human 60 %
     assert "| toe off (% cycle) | 52.8 | 60.0 |" in table
+
+
+def test_fit_timing_term_is_the_simulators_stance(problem):
+    """The stance % that pdw-fit --timing puts in the objective, from the NLP's own segment
+    durations, is the simulator's stance % at the starting gait."""
+    import casadi as ca
+
+    from pdw_casadi.fit.driver import stance_pct_expr
+    from pdw_casadi.shooting import ShootingNLP
+
+    fp = find_fixed_point(problem)
+    nlp = ShootingNLP(problem, fp.state, fp.parameters, free=("c_ankle",))
+    stance = float(ca.Function("s", [nlp.w], [stance_pct_expr(nlp)])(nlp.w0))
+    run = Simulator(problem).run(fp.state, fp.parameters, steps=1, record=False)
+    assert stance == pytest.approx(step_timing(problem.family, run.steps[0]).stance_pct,
+                                   abs=1e-9)

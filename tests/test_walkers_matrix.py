@@ -85,8 +85,11 @@ def test_fixed_point(name, tmp_path, capsys):
 def test_sweep_over_three_points(name, tmp_path, capsys):
     pb = load_problem(name)
     d = HALF_WIDTH.get(name, 2e-3)
+    # a fitted gait sits on a validity bound (the ankle walkers': the phase-I stance normal
+    # force at its 5 N minimum, which a smaller slope breaks): sweep up the slope from it
+    lo = pb.slope if name.startswith("humanlike_6link_ankle") else pb.slope - d
     out = tmp_path / "sw"
-    assert _main(sweep_main, ["--problem", name, "--from", repr(pb.slope - d), "--to",
+    assert _main(sweep_main, ["--problem", name, "--from", repr(lo), "--to",
                               repr(pb.slope + d), "--num", "3", "--out", str(out)]) == 0, \
         capsys.readouterr()
     table = pd.read_csv(out / "sweep.csv")
@@ -103,8 +106,11 @@ def test_fittable_walkers():
     assert FITTABLE == ["humanlike_6link", "humanlike_6link_ankle", *sorted(STUDY_VARIANTS)]
 
 
+#: the ankle walkers' fits take minutes and, from the shipped --timing gait, end with a
+#: margin at its bound that the re-simulation check decides (README, gait timing): slow
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)
-                                  if n in STUDY_VARIANTS else n for n in FITTABLE])
+                                  if n.startswith("humanlike_6link_ankle") else n
+                                  for n in FITTABLE])
 def test_fit_tiny(name, tmp_path, capsys):
     out = tmp_path / "fit"
     # from the problem's own compliance the 6-link fit converges in about 20 iterations
