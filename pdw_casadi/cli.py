@@ -413,7 +413,10 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     One multiple-shooting IPOPT NLP per start (see :mod:`pdw_casadi.fit`), verified by a
     20-step re-simulation and the exact-AD spectral radius. Writes ``summary.json``,
     ``curves.csv``, ``fit.png`` (Fig. 5 with the problem's own compliance and, for a walker
-    that has one, its comparison walker), ``limit_cycle.png`` (Fig. 4) and ``table.md``.
+    that has one, its comparison walker; the gait events marked), ``limit_cycle.png``
+    (Fig. 4) and ``table.md`` (R^2, then the gait timing beside human values).
+    ``--timing [W]`` adds the timing target (:class:`~pdw_casadi.fit.FitOptions`
+    ``timing_weight``).
     Exit code 1 when no stable valid gait was found (the outputs then describe the best
     candidate and say so). The walker needs knee and hip outputs and something to fit
     (compliance values, or ``--free-slope``).
