@@ -8,6 +8,7 @@ The API reads like the paper::
     gait.eigenvalues, gait.spectral_radius, gait.margins
 """
 
+from ._version import __version__
 from .fit import FitOptions, fit_gait
 from .fixed_point import find_fixed_point, stability
 from .gait_data import load_gait_curves
@@ -15,6 +16,5 @@ from .poincare import poincare_map
 from .problem import load_problem
 from .simulate import simulate
 
-__all__ = ["FitOptions", "fit_gait", "find_fixed_point", "load_gait_curves", "load_problem",
-           "poincare_map", "simulate", "stability"]
-__version__ = "0.1.0"
+__all__ = ["__version__", "FitOptions", "fit_gait", "find_fixed_point", "load_gait_curves",
+           "load_problem", "poincare_map", "simulate", "stability"]

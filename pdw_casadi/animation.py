@@ -15,13 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
+import numpy as np
+from matplotlib.animation import FuncAnimation, PillowWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 #: joints drawn as open circles (when the walker has them)
 JOINTS = ("knee1", "knee2", "ankle1", "ankle2")
@@ -53,7 +50,7 @@ def walk_frames(hs, result, p, fps: float = 25.0) -> WalkFrames:
     if traj is None or traj.empty:
         raise ValueError("the simulation has no recorded trajectory (run with record=True)")
     p = np.asarray(p, dtype=float).ravel()
-    gamma = float(p[-1])
+    gamma = float(p[hs.model.parameter_names.index("slope")])
     downhill = np.array([np.cos(gamma), -np.sin(gamma)])
     lengths = [s.step_length for s in result.steps]
     offsets = np.vstack([np.zeros(2)] + [np.nansum(lengths[:k + 1]) * downhill
@@ -86,7 +83,10 @@ def animate_walk(hs, result, p, path, fps: float = 25.0, title: str | None = Non
     allpts = np.concatenate(list(frames.points.values()))
     xlo, xhi = allpts[:, 0].min() - 0.2, allpts[:, 0].max() + 0.2
     ylo, yhi = allpts[:, 1].min() - 0.1, allpts[:, 1].max() + 0.15
-    fig, ax = plt.subplots(figsize=(min(12.0, 2.0 + 2.2 * (xhi - xlo)), 4.0))
+    # a figure of its own canvas, outside pyplot: the user's backend is left alone
+    fig = Figure(figsize=(min(12.0, 2.0 + 2.2 * (xhi - xlo)), 4.0), layout="tight")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     xs = np.array([xlo, xhi])
     ground = -xs * np.tan(frames.slope)
     ax.fill_between(xs, ground, ground - 0.1, color="0.85", lw=0)
@@ -108,7 +108,6 @@ def animate_walk(hs, result, p, path, fps: float = 25.0, title: str | None = Non
     ax.set_ylabel("y [m]")
     ax.set_title(title or f"Passive walking down a slope of {np.degrees(frames.slope):.2f} deg",
                  fontsize=10)
-    fig.tight_layout()
 
     def draw(i):
         P = {n: v[i] for n, v in frames.points.items()}
@@ -123,5 +122,4 @@ def animate_walk(hs, result, p, path, fps: float = 25.0, title: str | None = Non
     anim = FuncAnimation(fig, draw, frames=len(frames), interval=1000.0 / fps, blit=True)
     path.parent.mkdir(parents=True, exist_ok=True)
     anim.save(path, writer=PillowWriter(fps=fps), dpi=dpi)
-    plt.close(fig)
     return path

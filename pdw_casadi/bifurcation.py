@@ -71,11 +71,6 @@ TEST_FUNCTIONS = {"fold": phi_fold, "period_doubling": phi_period_doubling,
                   "neimark_sacker": phi_neimark_sacker}
 
 
-def test_values(eigenvalues) -> dict[str, float]:
-    """All test functions at one point (dimensionless)."""
-    return {k: f(eigenvalues) for k, f in TEST_FUNCTIONS.items()}
-
-
 def is_neimark_sacker(mu) -> bool:
     """At a zero of phi_NS: is the pair with mu_i mu_j closest to 1 a complex-conjugate pair
     (a Neimark-Sacker point) rather than two reals (a neutral saddle)?"""
@@ -91,7 +86,7 @@ def outside(mu) -> int:
 
 
 @dataclass
-class Event:
+class BranchEvent:
     """A located bifurcation or boundary. ``value`` in the unit of ``parameter``;
     ``bracket``: the interval known to contain it; ``crossing``: ``"outward"`` when an
     eigenvalue leaves the unit circle as the parameter increases, ``"inward"`` when one
@@ -143,16 +138,34 @@ class Locator:
         return self.corrector(guess, with_value(anchor.result.parameters, self.index, value))
 
     def event(self, kind, value, bracket, reason, res, refined=True, crossing=None,
-              branch=0) -> Event:
+              branch=0) -> BranchEvent:
         ok = res is not None and res.converged
-        return Event(kind, self.parameter, float(value), (float(bracket[0]), float(bracket[1])),
-                     reason, refined, crossing,
-                     res.eigenvalues if ok else None,
-                     float(res.spectral_radius) if ok else None,
-                     res.state_dict() if ok else None, branch)
+        return BranchEvent(kind, self.parameter, float(value),
+                           (float(bracket[0]), float(bracket[1])), reason, refined, crossing,
+                           res.eigenvalues if ok else None,
+                           float(res.spectral_radius) if ok else None,
+                           res.state_dict() if ok else None, branch)
 
 
-def crossings(a: BranchPoint, b: BranchPoint, locator: Locator, xtol: float) -> list[Event]:
+def _zero_along(locator, points, a: float, b: float, g, xtol: float):
+    """Brent's method on ``g(fixed point at v)`` for v between ``a`` and ``b``, each fixed
+    point predicted from ``points`` and corrected by the locator: (v, the fixed point solved
+    at v, or None). Raises :class:`_Unresolved` where no fixed point converges, ValueError
+    without a sign change."""
+    solved: dict[float, FixedPointResult] = {}
+
+    def f(v):
+        res = locator.solve(points, v)
+        if not res.converged:
+            raise _Unresolved(v)
+        solved[v] = res
+        return g(res)
+
+    v = brentq(f, a, b, xtol=xtol, rtol=4 * np.finfo(float).eps)
+    return v, solved.get(v)
+
+
+def crossings(a: BranchPoint, b: BranchPoint, locator: Locator, xtol: float) -> list[BranchEvent]:
     """Eigenvalue crossings of the unit circle between two converged neighbouring points."""
     lo, hi = sorted((a, b), key=lambda pt: pt.value)
     events = []
@@ -160,18 +173,10 @@ def crossings(a: BranchPoint, b: BranchPoint, locator: Locator, xtol: float) -> 
         f_lo, f_hi = phi(lo.result.eigenvalues), phi(hi.result.eigenvalues)
         if np.sign(f_lo) == np.sign(f_hi):
             continue
-        solved: dict[float, FixedPointResult] = {}
-
-        def f(v, phi=phi, solved=solved):
-            res = locator.solve([lo, hi], v)
-            if not res.converged:
-                raise _Unresolved(v)
-            solved[v] = res
-            return phi(res.eigenvalues)
-
         try:
-            value = brentq(f, lo.value, hi.value, xtol=xtol, rtol=4 * np.finfo(float).eps)
-            res = solved.get(value) or locator.solve([lo, hi], value)
+            value, res = _zero_along(locator, [lo, hi], lo.value, hi.value,
+                                     lambda r, phi=phi: phi(r.eigenvalues), xtol)
+            res = res or locator.solve([lo, hi], value)
             refined = True
         except _Unresolved:
             value, res, refined = 0.5 * (lo.value + hi.value), None, False
@@ -207,7 +212,7 @@ def _crossing_reason(kind, res, crossing, parameter) -> str:
 
 
 def boundary(last: BranchPoint, value: float, point: BranchPoint | None, failure: str | None,
-             problem, locator: Locator, xtol: float, bisect_tol: float) -> Event:
+             problem, locator: Locator, xtol: float, bisect_tol: float) -> BranchEvent:
     """Locate where the gait pattern ends between a valid point ``last`` and ``value``.
 
     ``point``: the converged but invalid fixed point at ``value`` (a margin below its
@@ -219,18 +224,11 @@ def boundary(last: BranchPoint, value: float, point: BranchPoint | None, failure
         broken = [k for k, s in slacks.items() if s < 0 or (s <= 0 and "impulse" in k)]
         found = []
         for key in broken:
-            solved: dict[float, FixedPointResult] = {}
-
-            def f(v, key=key, solved=solved):
-                res = locator.solve([last, point], v)
-                if not res.converged:
-                    raise _Unresolved(v)
-                solved[v] = res
-                return validity_slacks(res.margins, problem).get(key, np.nan)
-
             try:
-                v = brentq(f, last.value, value, xtol=xtol, rtol=4 * np.finfo(float).eps)
-                found.append((abs(v - last.value), v, key, solved.get(v), True))
+                v, res = _zero_along(
+                    locator, [last, point], last.value, value,
+                    lambda r, key=key: validity_slacks(r.margins, problem).get(key, np.nan), xtol)
+                found.append((abs(v - last.value), v, key, res, True))
             except (_Unresolved, ValueError):
                 found.append((abs(value - last.value), 0.5 * (last.value + value), key, None,
                               False))
@@ -258,7 +256,7 @@ def boundary(last: BranchPoint, value: float, point: BranchPoint | None, failure
 
 
 def branch_end(end: BranchEnd, problem, locator: Locator, xtol: float, bisect_tol: float,
-               fold_tol: float = 0.1) -> Event:
+               fold_tol: float = 0.1) -> BranchEvent:
     """Name and locate the end of a branch (see :class:`~pdw_casadi.continuation.BranchEnd`)."""
     if end.kind == "invalid":
         return boundary(end.last, end.failed_value, end.point, end.failure, problem, locator,

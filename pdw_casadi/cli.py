@@ -12,8 +12,8 @@ disk. They share:
   ``--compliance`` and ``--out``;
 - :func:`load_cli_problem`: the problem with the ``--state`` / ``--compliance`` overrides
   applied (overrides obey the problem's ``compliance_bounds``);
-- :func:`_write_json`: JSON output with numpy scalars/arrays, paths and non-finite floats
-  (written as ``null``) handled.
+- :func:`pdw_casadi.jsonio.write_json`: JSON output with numpy scalars/arrays, paths and
+  non-finite floats (written as ``null``) handled.
 
 Adding a command: write ``foo_main(argv=None)`` that builds a :class:`Parser` with
 ``parents=[common_parser()]``, validates in a ``body()`` before ``outputs.create()`` and
@@ -49,7 +49,10 @@ from .cli_contract import (
     run,
     user_errors,
 )
-from .problem import Problem, ProblemError, check_bounds, load_overrides, load_problem
+from .errors import NoStartGait, ProblemError
+from .jsonio import write_json
+from .problem import Problem, check_bounds, load_overrides, load_problem
+from .timing import TimingError, fixed_point_timing, simulation_timing
 
 __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]
@@ -70,33 +73,19 @@ def _fail(message: object, code: int = 2) -> NoReturn:
     fail(message, code)
 
 
-def _jsonable(obj):
-    """``obj`` with numpy types, tuples, paths and non-finite floats made JSON-safe."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, np.bool_ | bool):
-        return bool(obj)
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating | float):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, Path):
-        return str(obj)
-    if hasattr(obj, "to_dict"):
-        return _jsonable(obj.to_dict())
-    return obj
+def _parse(parser: argparse.ArgumentParser, argv) -> tuple[argparse.Namespace, Outputs]:
+    """The parsed arguments of a command and its output directory (not created yet)."""
+    args = parser.parse_args(argv)
+    return args, Outputs(args.out)
 
 
-def _write_json(path: Path | str, data) -> Path:
-    """Write ``data`` as indented JSON (strict: NaN and inf become null)."""
-    path = Path(path)
-    path.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
-    return path
+def _parallel_arguments(parser: argparse.ArgumentParser, what: str) -> None:
+    """--workers K and --scheduler ADDRESS (a Dask scheduler overrides --workers)."""
+    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
+                        metavar="K", help=f"processes for {what} (default: %(default)s)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help=f"Dask scheduler for {what} (e.g. tcp://host:8786); overrides "
+                             "--workers")
 
 
 def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
@@ -191,8 +180,6 @@ def _check_curve_walker(problem: Problem, what: str):
 # --------------------------------------------------------------------------------------------
 def simulation_summary(problem: Problem, result, steps_requested: int | None = None) -> dict:
     """The summary.json content of a simulation (SI units; see :func:`simulate_main`)."""
-    from .timing import simulation_timing
-
     names = list(problem.state_names)
     done = [s for s in result.steps if s.x_section_end is not None]
     first = done[0] if done else None
@@ -229,15 +216,11 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
         "steps": [s.to_dict() for s in result.steps],
         "margins": margins,
         "timing": _timing_or_none(lambda: simulation_timing(problem.family, result)),
-        "units": {"angles": "rad", "rates": "rad/s", "time": "s", "length": "m",
-                  "energy": "J", "speed": "m/s"},
     }
 
 
 def _timing_or_none(compute):
     """Gait timing (:mod:`pdw_casadi.timing`), or None for a walker that declares none."""
-    from .timing import TimingError
-
     try:
         return compute()
     except TimingError:
@@ -283,8 +266,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--fps", type=int_range("--fps", 1, 100), default=25, metavar="F",
                         help="frames per simulated second of the animation, 1..100 (default: "
                              "%(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
@@ -296,6 +278,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         from .faces import walker_faces
         from .plots import plot_angles, plot_stick
         from .simulate import Simulator
+        from .units import summary_units, with_units
 
         sim = Simulator(problem)
         faces = walker_faces(problem, sim.hs)
@@ -311,10 +294,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
             import pandas as pd
 
             traj = pd.DataFrame()
-        traj.to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
-        result.events.to_csv(outputs.wrote(out / "events.csv"), index=False)
+        with_units(traj, sim.hs).to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
+        with_units(result.events, sim.hs).to_csv(outputs.wrote(out / "events.csv"),
+                                                 index=False)
         summary = simulation_summary(problem, result, args.steps)
-        _write_json(outputs.wrote(out / "summary.json"), summary)
+        summary["units"] = summary_units(summary, sim.hs)
+        write_json(outputs.wrote(out / "summary.json"), summary)
         plot_angles(traj, outputs.wrote(out / "angles.png"),
                     title=f"{problem.name}: joint angles", faces=faces)
         plot_stick(sim.hs, traj, p, outputs.wrote(out / "stick.png"), n=args.snapshots)
@@ -354,8 +339,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
@@ -364,6 +348,8 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         from .fixed_point import find_fixed_point
         from .plots import plot_limit_cycle
         from .simulate import Simulator
+        from .system import hybrid_system
+        from .units import summary_units
 
         faces = walker_faces(problem)
         out = outputs.create()
@@ -377,11 +363,10 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
         if res.converged:
-            from .timing import fixed_point_timing
-
             summary["timing"] = _timing_or_none(lambda: fixed_point_timing(
                 problem, res.state, res.parameters))
-        _write_json(outputs.wrote(out / "summary.json"), summary)
+        summary["units"] = summary_units(summary, hybrid_system(problem))
+        write_json(outputs.wrote(out / "summary.json"), summary)
         if res.converged:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)
@@ -453,15 +438,11 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
                         help="NLP solves per start: a further one is built at the answer only "
                              "when the objective's sample brackets moved (default: %(default)s)")
-    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
-                        help="processes for the multistart (default: 1)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="Dask scheduler for the multistart (e.g. tcp://host:8786)")
+    _parallel_arguments(parser, "the multistart")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         human = _gait_file(args.gait)
@@ -595,23 +576,16 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--refit", action="store_true",
                         help="refit the compliance to --gait at every point (a full pdw-fit "
                              "per point, warm-started from the neighbour; slow)")
-    parser.add_argument("--workers", type=int_range("--workers", 1, 256), default=1,
-                        metavar="K", help="processes for independent work (default: "
-                                          "%(default)s)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="Dask scheduler address (e.g. tcp://host:8786); overrides "
-                             "--workers")
+    _parallel_arguments(parser, "independent work")
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| of every fixed point, in [{TOL_RANGE[0]:g}, "
                              f"{TOL_RANGE[1]:g}] (default: %(default)s)")
-    args = parser.parse_args(argv)
-    outputs = Outputs(args.out)
+    args, outputs = _parse(parser, argv)
 
     def body() -> int:
         import pandas as pd
 
         from .continuation import parameter_index
-        from .sweep import NoStartGait
 
         if args.start == args.stop:
             raise UsageError(f"--from and --to must differ, got {args.start:g} twice")
@@ -637,6 +611,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
 
         from .plots import plot_sweep
         from .sweep import SweepSettings, sweep
+        from .system import hybrid_system
+        from .units import Units
+
+        units = Units(hybrid_system(problem))
 
         corrector = None
         if args.refit:
@@ -662,7 +640,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             # lack some (a failed point has no margins) get empty cells
             if not columns:
                 columns.extend(row)
-            frame = pd.DataFrame([row]).reindex(columns=columns)
+            frame = units.frame(pd.DataFrame([row]).reindex(columns=columns))
             frame.to_csv(partial, mode="a", header=not partial.exists(), index=False)
             found[0] += 1
             note()
@@ -684,9 +662,11 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         outputs.notes.clear()
         outputs.wrote(csv_path)
         summary = {**res.to_dict(), "problem": problem.name,
-                   "compliance": dict(problem.compliance), "slope": problem.slope,
-                   "units": {"slope": "rad", "time": "s", "length": "m", "speed": "m/s"}}
-        _write_json(outputs.wrote(out / "events.json"), summary)
+                   "compliance": dict(problem.compliance), "slope": problem.slope}
+        unit = units.of(args.param)  # grid, start and event values are in the parameter's
+        summary["units"] = {**units.summary(summary), "start_value": unit, "grid": unit,
+                            "events[].value": unit, "events[].bracket": unit}
+        write_json(outputs.wrote(out / "events.json"), summary)
         plot_sweep(res.table, res.events, args.param, outputs.wrote(out / "sweep.png"),
                    title=f"{problem.name}: sweep over {args.param}")
         table = res.table

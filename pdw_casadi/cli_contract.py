@@ -29,20 +29,11 @@ from pathlib import Path
 from typing import NoReturn
 from urllib.parse import urlsplit
 
-from .fit.objective import CurveError
-from .gait_data import GaitDataError
-from .problem import ProblemError
+from ._version import __version__
+from .errors import CurveError, GaitDataError, NoGait, ProblemError, UsageError
 
 #: exit codes of the contract
 EXIT_OK, EXIT_NO_GAIT, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class UsageError(ProblemError):
-    """Bad command-line input (exit code 2, one ``error:`` line)."""
-
-
-class NoGait(Exception):
-    """The command ran but found no gait; the message is the reason (exit code 1)."""
 
 
 #: exceptions that are the user's input, reported as ``error: ...`` with exit code 2
@@ -62,7 +53,12 @@ def fail(message: object, code: int = EXIT_USAGE) -> NoReturn:
 
 class Parser(argparse.ArgumentParser):
     """An ArgumentParser whose errors are one ``error:`` line and exit code 2 (argparse
-    prints the usage and the message on several lines)."""
+    prints the usage and the message on several lines), with ``--version``."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        self.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                          help="print the toolkit's version and exit")
 
     def error(self, message: str) -> NoReturn:
         # "argument --num: --num must be >= 2, got 1" -> "--num must be >= 2, got 1"

@@ -194,9 +194,6 @@ class LazyGroup:
 
         return call
 
-    def __getitem__(self, key):
-        return self._lazy("_fast", compiled, key)
-
     def np(self, key):
         """Numpy-level callable of function ``key`` (see :class:`Native`)."""
         return self._lazy("_np", native, key)

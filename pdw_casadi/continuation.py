@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .fixed_point import FixedPointResult, find_fixed_point
+from .poincare import PoincareMap
 from .problem import Problem, ProblemError
 
 #: (x_guess, p) -> fixed point at parameters p (which hold the new lambda)
@@ -54,8 +55,6 @@ class NewtonCorrector:
     @property
     def pmap(self):
         if self._pmap is None:
-            from .poincare import PoincareMap
-
             self._pmap = PoincareMap(self.problem)
         return self._pmap
 

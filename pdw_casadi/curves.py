@@ -25,6 +25,19 @@ def r_squared(model, human) -> float:
     return 1.0 - ss_res / ss_tot
 
 
+def cycle_time(t, leg: int, T, t_hs=None, after_hs: bool = True):
+    """Time (s) since the gait cycle's start of leg ``leg``'s sample at time ``t`` (s) into a
+    step lasting ``T`` (numpy or CasADi). ``t_hs``: the swing leg's heel strike in the step
+    (None: the step begins at leg 1's heel strike, so leg 1 fills the cycle's first half);
+    ``after_hs``: leg 2's sample lies after that heel strike (else before it: the cycle's
+    end). The cycle is two steps long (docs/model.md)."""
+    if t_hs is None:
+        return t if leg == 1 else T + t
+    if leg == 1:
+        return T - t_hs + t
+    return t - t_hs if after_hs else 2 * T - t_hs + t
+
+
 def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
                n: int = 101) -> pd.DataFrame:
     """Model curves over one gait cycle (deg) from one recorded step at a fixed point.
@@ -41,8 +54,8 @@ def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
     ph = step["phase"].to_numpy()
     parts = []
     if heel_strike_phase is None:
-        parts.append((t, step, 1))
-        parts.append((T + t, step, 2))
+        parts.append((cycle_time(t, 1, T), step, 1))
+        parts.append((cycle_time(t, 2, T), step, 2))
     else:
         hits = np.flatnonzero(ph == heel_strike_phase)
         if hits.size == 0:
@@ -51,10 +64,10 @@ def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
         i_hs = int(hits[0])
         t_hs = t[i_hs]
         a = slice(i_hs, None)
-        parts.append((t[a] - t_hs, step.iloc[a], 2))
-        parts.append((T - t_hs + t, step, 1))
+        parts.append((cycle_time(t[a], 2, T, t_hs), step.iloc[a], 2))
+        parts.append((cycle_time(t, 1, T, t_hs), step, 1))
         c = slice(0, i_hs)
-        parts.append((2 * T - t_hs + t[c], step.iloc[c], 2))
+        parts.append((cycle_time(t[c], 2, T, t_hs, after_hs=False), step.iloc[c], 2))
     time = np.concatenate([p[0] for p in parts])
     out = {"cycle_pct": np.linspace(0.0, 100.0, n)}
     pct = 100.0 * time / (2 * T)

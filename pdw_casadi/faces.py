@@ -2,18 +2,18 @@
 
 Phase names, transitions, leg coordinates and joint outputs all come from the walker: the
 phases and transitions from its :class:`~pdw_casadi.hybrid.WalkerModel`, the rest from its
-family module (:mod:`pdw_casadi.walkers`), which may define
+registered :class:`~pdw_casadi.walkers.registry.Family`:
 
-- ``PHASE_DESCRIPTIONS``: phase name -> a few words (figure captions);
-- ``LIMIT_CYCLE_LEGS``: the coordinates of one physical leg, per segment, in step 0 (where
+- ``phase_descriptions``: phase name -> a few words (figure captions);
+- ``limit_cycle_legs``: the coordinates of one physical leg, per segment, in step 0 (where
   it is leg 1, the stance leg) and in step 1 (leg 2, the swing leg), e.g.
-  ``(("q1", "q2"), ("q4", "q3"))`` for (shank, thigh); ``LEG_SEGMENTS`` names the segments;
-- ``CURVE_JOINTS``: the joints with ``<joint>1_deg`` / ``<joint>2_deg`` outputs that mean
+  ``(("q1", "q2"), ("q4", "q3"))`` for (shank, thigh); ``leg_segments`` names the segments;
+- ``curve_joints``: the joints with ``<joint>1_deg`` / ``<joint>2_deg`` outputs that mean
   something (a rigid-legged walker has no knee); the gait-curve fit needs knee and hip;
-- ``INSTANT_LABELS``: transition name -> label of the instant in the limit-cycle figure
+- ``instant_labels``: transition name -> label of the instant in the limit-cycle figure
   (the 6-link walker uses the paper's a/b/c of Fig. 4); default: the transition name;
-- ``COMPARISON_PROBLEM``: a bundled problem that a fit report compares against;
-- ``PAPER_REPORTED_R2``: R^2 values a publication reports for this walker (fit report).
+- ``comparison_problem``: a bundled problem that a fit report compares against;
+- ``paper_reported_r2``: R^2 values a publication reports for this walker (fit report).
 
 Nothing here names a particular walker's phases.
 """
@@ -24,6 +24,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import pandas as pd
+
+from .system import hybrid_system
+from .walkers import get_family
 
 #: phase shading colours, assigned in the model's phase order
 PALETTE = ("#d8e6f3", "#f4f4f4", "#f6e3cf", "#e0f0dc", "#efe0f3", "#f3f0d0")
@@ -91,9 +94,6 @@ class WalkerFaces:
 
 def walker_faces(problem, hs=None) -> WalkerFaces:
     """The faces of ``problem``'s walker (its hybrid system is built if not given)."""
-    from .system import hybrid_system
-    from .walkers import get_family
-
     hs = hs or hybrid_system(problem)
     model = hs.model
     fam = get_family(problem.family)
@@ -104,15 +104,15 @@ def walker_faces(problem, hs=None) -> WalkerFaces:
     return WalkerFaces(
         family=problem.family,
         phases=tuple(ph.name for ph in model.phases),
-        phase_descriptions=dict(getattr(fam, "PHASE_DESCRIPTIONS", {})),
+        phase_descriptions=dict(fam.phase_descriptions),
         transitions=transitions,
-        legs=tuple(tuple(leg) for leg in getattr(fam, "LIMIT_CYCLE_LEGS", ())),
-        leg_segments=tuple(getattr(fam, "LEG_SEGMENTS", ())),
-        joints=tuple(getattr(fam, "CURVE_JOINTS", ("knee", "hip"))),
-        instant_labels=dict(getattr(fam, "INSTANT_LABELS", {})),
+        legs=tuple(tuple(leg) for leg in fam.limit_cycle_legs),
+        leg_segments=tuple(fam.leg_segments),
+        joints=tuple(fam.curve_joints),
+        instant_labels=dict(fam.instant_labels),
         heel_strike_phase=model.heel_strike_phase,
-        comparison_problem=getattr(fam, "COMPARISON_PROBLEM", None),
-        paper_reported=getattr(fam, "PAPER_REPORTED_R2", None),
+        comparison_problem=fam.comparison_problem,
+        paper_reported=fam.paper_reported_r2,
     )
 
 

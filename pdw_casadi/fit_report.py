@@ -15,41 +15,23 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .curves import fit_scores, gait_cycle
 from .faces import walker_faces
-from .fit import Candidate, FitOptions, FitResult, check_targets, fit_gait, mean_score
-from .fixed_point import find_fixed_point
+from .fit import (
+    Candidate,
+    FitOptions,
+    FitResult,
+    check_targets,
+    fit_gait,
+    mean_score,
+    reference_gait,
+)
+from .jsonio import write_json
 from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
 from .simulate import Simulator
-from .timing import TimingError, human_timing, step_timing, timing_table
-
-
-def reference_gait(problem, human) -> dict:
-    """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
-    fp = find_fixed_point(problem)
-    out = {"problem": problem.name, "converged": fp.converged,
-           "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
-           "failure": fp.failure, "curves": None}
-    if not fp.converged:
-        return out
-    sim = Simulator(problem)
-    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
-    if one.failure is not None:
-        out["failure"] = one.failure.reason
-        return out
-    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
-    out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
-               step_length_m=fp.step_length_m, timing=_timing(problem, one))
-    return out
-
-
-def _timing(problem, one):
-    """The gait timing of a one-step run from a fixed point (None: the walker has none)."""
-    try:
-        return step_timing(problem.family, one.steps[0])
-    except TimingError:
-        return None
+from .system import hybrid_system
+from .timing import fixed_point_timing, human_timing, timing_table
+from .units import summary_units
 
 
 def _scores(d: dict) -> dict:
@@ -102,6 +84,9 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
                            "human_hip_deg": h.hip_deg})
     if h.thigh_deg is not None:
         curves["human_thigh_deg"] = h.thigh_deg
+    for joint in ("knee", "hip", "thigh"):  # the human SD, as fit.png draws it
+        if getattr(h, f"{joint}_sd_deg", None) is not None:
+            curves[f"human_{joint}_sd_deg"] = getattr(h, f"{joint}_sd_deg")
     models, scores = {}, {}
     for label, d in (("fit", {"curves": cand.curves} if cand else {}),
                      ("table3", table3), ("comparison", comparison or {})):
@@ -122,8 +107,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             scores[names[key]] = _scores(d)
     fit_timing = None
     if cand is not None:
-        fit_timing = _timing(problem, Simulator(problem).run(cand.state, cand.parameters,
-                                                             steps=1, record=False))
+        fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
     norms, norms_source = human_timing(human)
     markers = {"human toe off": norms["toe_off_pct"]}
     if fit_timing is not None:
@@ -147,12 +131,10 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
     summary["solver"] = solver
     if cand is not None:
         fp = cand.fixed_point
-        names_p = list(problem.parameter_names)
+        compliance, slope = problem.split_parameters(cand.parameters)
         summary.update(cand.scores)
         summary.update({
-            "compliance": dict(zip(names_p[:-1], map(float, cand.parameters[:-1]),
-                                   strict=True)),
-            "slope": float(cand.parameters[-1]),
+            "compliance": compliance, "slope": slope,
             "fixed_point": dict(zip(fp.state_names, map(float, cand.state), strict=True)),
             "eigenvalues": [[float(e.real), float(e.imag)] for e in fp.eigenvalues],
             "spectral_radius": fp.spectral_radius, "stable": bool(fp.stable),
@@ -199,7 +181,6 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
             f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
             f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
-    from .cli import _write_json
-
-    _write_json(out / "summary.json", summary)
+    summary["units"] = summary_units(summary, hybrid_system(problem))
+    write_json(out / "summary.json", summary)
     return summary

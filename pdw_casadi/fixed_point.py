@@ -16,10 +16,13 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 
+import casadi as ca
 import numpy as np
 import pandas as pd
 
+from .margins import first_violation, slacks
 from .poincare import PoincareError, PoincareMap
+from .system import hybrid_system
 
 
 @dataclass
@@ -100,41 +103,23 @@ class FixedPointResult:
         return pd.DataFrame({"name": self.state_names, "value": self.state})
 
 
-#: margin-name prefix -> (validity key of its required minimum, unit); impulses have no
-#: configurable minimum: they must be positive
-_REQUIREMENTS = (("min_N_", "min_normal_force", "N"), ("min_copmargin", "min_cop_margin", "m"),
-                 ("min_clearance_toe", "min_clearance", "m"), ("impulse", None, "N s"))
-
-
-def validity_slacks(margins: dict, problem) -> dict[str, float]:
-    """Each checked validity margin minus its required minimum (N, m or N s, by margin).
+def validity_slacks(margins: dict, problem, hs=None) -> dict[str, float]:
+    """Each validity margin of ``margins`` minus its required minimum (N, m or N s, by
+    margin; the walker's :class:`~pdw_casadi.margins.Margin` specs, ``hs`` or the problem's
+    hybrid system).
 
     The gait pattern holds while every slack is >= 0 (impulses: > 0); a slack reaching zero
     along a parameter sweep is a gait-pattern boundary. Margins that carry no requirement
     (e.g. the energy lost at knee-spring disengagement) are left out.
     """
-    v = problem.validity
-    out = {}
-    for key, val in margins.items():
-        name = key.split(":", 1)[-1]
-        for prefix, vkey, _unit in _REQUIREMENTS:
-            if name.startswith(prefix):
-                out[key] = float(val) - (v.get(vkey, 0.0) if vkey else 0.0)
-                break
-    return out
+    return slacks(margins, (hs or hybrid_system(problem)).margin_specs, problem.validity)
 
 
-def _margins_valid(margins: dict, problem) -> str | None:
-    """Name of the first validity margin below its required minimum, or None."""
-    v = problem.validity
-    for key, slack in validity_slacks(margins, problem).items():
-        name = key.split(":", 1)[-1]
-        vkey, unit = next((k, u) for prefix, k, u in _REQUIREMENTS if name.startswith(prefix))
-        if vkey is None and slack <= 0:
-            return f"{key} = {margins[key]:.3g} <= 0"
-        if vkey is not None and slack < 0:
-            return f"{key} = {margins[key]:.3g} {unit} < {v.get(vkey, 0.0)} {unit}"
-    return None
+def validity_failure(margins: dict, problem, hs=None) -> str | None:
+    """The first validity margin of ``margins`` below its required minimum (a message naming
+    it and the requirement), or None."""
+    return first_violation(margins, (hs or hybrid_system(problem)).margin_specs,
+                           problem.validity)
 
 
 def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int = 30,
@@ -241,8 +226,6 @@ def _quiet_stderr():
 
 def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
     """IPOPT least squares min ||P(x) - x||^2 with the exact Jacobian (fallback)."""
-    import casadi as ca
-
     f = P.as_casadi()
     xs = ca.MX.sym("x", x.size)
     res = f(xs, ca.DM(p)) - xs
@@ -263,17 +246,19 @@ def _finish(problem, P, x, p, converged, it, method, t_start, history) -> FixedP
     try:
         r = P.evaluate(x, p, jacobian=True, margins=True)  # margins, no trajectory frame
     except PoincareError as exc:
-        nan = np.full((x.size, x.size), np.nan)
+        nan = float("nan")
         return FixedPointResult(
-            x, P.state_names, p, P.parameter_names, float("nan"), it, False, nan,
-            np.full((x.size, p.size), np.nan), np.full(x.size, np.nan), float("nan"),
-            float("nan"), float("nan"), {}, False, exc.failure.reason, method,
-            time.perf_counter() - t_start, history)
+            state=x, state_names=P.state_names, parameters=p,
+            parameter_names=P.parameter_names, residual=nan, iterations=it, converged=False,
+            jacobian=np.full((x.size, x.size), nan), jacobian_p=np.full((x.size, p.size), nan),
+            eigenvalues=np.full(x.size, nan), spectral_radius=nan, step_time_s=nan,
+            step_length_m=nan, margins={}, valid=False, failure=exc.failure.reason,
+            method=method, wall_time_s=time.perf_counter() - t_start, history=history)
     st = stability(r.dx)
     sr = r.sim.steps[0]
     margins = dict(sr.margins)
     margins["spring_disengagement_loss_J"] = sr.spring_loss_J
-    failure = _margins_valid(margins, problem)
+    failure = validity_failure(margins, problem, P.hs)
     return FixedPointResult(
         state=x, state_names=P.state_names, parameters=p, parameter_names=P.parameter_names,
         residual=float(np.linalg.norm(r.x_next - x)), iterations=it, converged=converged,

@@ -34,6 +34,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from pdw_casadi import resources
+from pdw_casadi.errors import GaitDataError
 
 __all__ = [
     "ANGLE_COLUMNS",
@@ -87,10 +88,6 @@ _READ_ERRORS = (
     pd.errors.ParserError,
     pd.errors.EmptyDataError,
 )
-
-
-class GaitDataError(ValueError):
-    """A gait-curve file is missing, unreadable or does not hold valid gait curves."""
 
 
 FloatArray = npt.NDArray[np.float64]

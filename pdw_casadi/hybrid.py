@@ -12,13 +12,26 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import NamedTuple
 
 import casadi as ca
 
 from .compile import Lazy
+from .margins import Margin, check_key, check_margin, output_margin, phase_key
 from .mechanics.planar import ContactSet, PlanarSystem
+from .rk4 import rk4
 
-GUARD, SWITCH, FAILURE = "guard", "switch", "failure"
+
+class EventKind(StrEnum):
+    """What crossing an event does: end the phase, switch the mode, end the simulation."""
+
+    GUARD = "guard"
+    SWITCH = "switch"
+    FAILURE = "failure"
+
+
+GUARD, SWITCH, FAILURE = EventKind.GUARD, EventKind.SWITCH, EventKind.FAILURE
 
 Mode = dict[str, float]
 CSE = {"cse": True}  # SX function option: merge repeated subexpressions
@@ -41,7 +54,7 @@ class Event:
     name: str
     expr: ca.SX
     direction: int
-    kind: str
+    kind: EventKind
     description: str = ""
     when: Callable[[Mode], bool] | None = None
     effect: Callable[[Mode, int], Mode] | None = None
@@ -64,10 +77,9 @@ class Phase:
     lam: ca.SX
     events: list[Event] = field(default_factory=list)
     outputs: dict[str, ca.SX] = field(default_factory=dict)
-
-    @property
-    def guard(self) -> Event:
-        return next(e for e in self.events if e.kind == GUARD)
+    #: validity margins among the outputs (name -> spec); None: by the naming rule of
+    #: :mod:`pdw_casadi.margins`
+    margins: dict[str, Margin] | None = None
 
 
 def make_phase(system: PlanarSystem, F_q, name: str, contact: ContactSet) -> Phase:
@@ -78,7 +90,9 @@ def make_phase(system: PlanarSystem, F_q, name: str, contact: ContactSet) -> Pha
 
 @dataclass
 class Transition:
-    """An instantaneous transition at the end of phase ``source`` (impact if ``impact``).
+    """An instantaneous transition at the end of phase ``source`` (impact if ``impact``),
+    taken when the phase ends on its guard event ``guard`` (None: the phase's only guard),
+    so that a phase with several guards may end in different transitions.
 
     ``qd_plus``/``impulse`` come from :meth:`PlanarSystem.impact`; ``checks`` are named
     margins in (q, qd, qd_plus) that must be > 0 for the assumed gait pattern; ``relabel`` =
@@ -96,6 +110,10 @@ class Transition:
     relabel: tuple[ca.SX, ca.SX] | None = None
     ends_step: bool = False
     mode_after: Callable[[Mode], Mode | str] | None = None
+    guard: str | None = None
+    #: validity margins among the checks (name -> spec); None: by the naming rule of
+    #: :mod:`pdw_casadi.margins`
+    margins: dict[str, Margin] | None = None
 
 
 def make_transition(system: PlanarSystem, name: str, source: str, target: str,
@@ -124,7 +142,7 @@ class WalkerModel:
     m: ca.SX
     mode_keys: tuple[str, ...]
     initial_mode: Mode
-    F_q: ca.SX
+    F_q: ca.SX  # generalized forces of eq. (12) (gravity, velocity terms, joint torques)
     spring_energy: ca.SX
     damping_power: ca.SX
     phases: list[Phase]
@@ -142,6 +160,25 @@ class WalkerModel:
     #: the phase that begins at the swing leg's heel strike (gait-cycle start, docs/model.md);
     #: None: the step itself begins at leg 1's heel strike (point feet)
     heel_strike_phase: str | None = None
+
+
+class Impact(NamedTuple):
+    """The outputs of a transition's map (numpy arrays or CasADi expressions): the state
+    after it in the next phase's coordinates, the impulses (N s), the checks, and the
+    post-impact state before relabelling (same frame as the state before, for energies)."""
+
+    x_plus: object
+    impulse: object
+    checks: object
+    x_post: object
+
+
+class Energy(NamedTuple):
+    """Kinetic, potential and spring energy of a state (J)."""
+
+    kinetic: float
+    potential: float
+    spring: float
 
 
 class HybridSystem:
@@ -164,6 +201,11 @@ class HybridSystem:
         self.rhs, self.step, self.events, self.chunk, self.locate = {}, {}, {}, {}, {}
         self.outputs, self.output_names, self.event_list = {}, {}, {}
         self.event_jac, self.require = {}, {}
+        #: per phase / transition: (row, output or check name, Margin) of its validity
+        #: margins; ``margin_specs``: margins-table key -> Margin (see pdw_casadi.margins)
+        self.phase_margins: dict[str, list[tuple[int, str, Margin]]] = {}
+        self.check_margins: dict[str, list[tuple[int, str, Margin]]] = {}
+        self.margin_specs: dict[str, Margin] = {}
 
         def subs_x(expr):
             return ca.substitute(expr, ca.vertcat(q, qd), x[: 2 * self.nq])
@@ -176,11 +218,10 @@ class HybridSystem:
             # products in M_q); merging them saves ~12 % of the operations, same values
             rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"],
                               CSE)
-            k1 = rhs(x, p, m)
-            k2 = rhs(x + h / 2 * k1, p, m)
-            k3 = rhs(x + h / 2 * k2, p, m)
-            k4 = rhs(x + h * k3, p, m)
-            x_next = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            def f(y, rhs=rhs):
+                return rhs(y, p, m)
+
+            x_next = rk4(f, x, h)
             step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
                                ["x", "h", "p", "m"], ["xf"], CSE)
             g = subs_x(ca.vertcat(*[e.expr for e in ph.events]))
@@ -198,6 +239,9 @@ class HybridSystem:
             out_vec = subs_x(ca.vertcat(*outs.values()))
             self.outputs[ph.name] = ca.Function(f"outputs_{ph.name}", [x, p, m], [out_vec])
             self.output_names[ph.name] = list(outs)
+            self.phase_margins[ph.name] = _declared(list(outs), ph.margins, output_margin)
+            self.margin_specs.update({phase_key(ph.name, name): mg
+                                      for _, name, mg in self.phase_margins[ph.name]})
             # K steps per call: the simulator's hot loop calls this, not the single step.
             # The events are needed at every step's end point, whose right-hand side is the
             # next step's first stage: one fused function gives both (shared subexpressions,
@@ -209,10 +253,7 @@ class HybridSystem:
                              CSE)
             z = ca.SX.sym("z", 2 * self.nx)
             xz, k1 = z[: self.nx], z[self.nx:]
-            k2 = rhs(xz + h / 2 * k1, p, m)
-            k3 = rhs(xz + h / 2 * k2, p, m)
-            k4 = rhs(xz + h * k3, p, m)
-            xn = xz + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            xn = rk4(f, xz, h, k1=k1)
             k1n, gn = fg(xn, p, m)
             fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
             acc = fsal.mapaccum(f"acc_{ph.name}", chunk_size, [0], [0])
@@ -235,7 +276,13 @@ class HybridSystem:
             self.event_list[ph.name] = ph.events
 
         self.impact, self.impact_jac = {}, {}
-        self.transitions = {tr.source: tr for tr in model.transitions}
+        #: (phase, guard event name) -> the transition taken there
+        self.transitions: dict[tuple[str, str], Transition] = {}
+        for tr in model.transitions:
+            key = (tr.source, tr.guard or _only_guard(self.phases[tr.source]))
+            if key in self.transitions:
+                raise ValueError(f"two transitions leave phase {key[0]!r} at guard {key[1]!r}")
+            self.transitions[key] = tr
         for tr in model.transitions:
             chk = ca.vertcat(*tr.checks.values()) if tr.checks else ca.SX(0, 1)
             q_new, qd_new = q, tr.qd_plus
@@ -255,6 +302,10 @@ class HybridSystem:
                 f"impact_jac_{tr.name}", [x, p],
                 [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]))
         self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
+        for tr in model.transitions:
+            self.check_margins[tr.name] = _declared(list(tr.checks), tr.margins, check_margin)
+            self.margin_specs.update({check_key(tr.name, name): mg
+                                      for _, name, mg in self.check_margins[tr.name]})
         e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
         # Lazy: called a few times per step by the simulator (``.np``); ``(...)`` gives DMs
         self.energy = Lazy(ca.Function("energy", [x, p, m], [e], ["x", "p", "m"], ["E"]))
@@ -264,6 +315,28 @@ class HybridSystem:
         self.points = ca.Function(
             "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
         self.point_names = list(model.points)
+
+    def rhs_jacobian(self, phase: str, x: ca.SX) -> ca.Function:
+        """(xdot, dxdot/dx, dxdot/dp) of a phase as one SX function of (x, p, m) (the
+        sensitivities of the Poincare map and of the shooting intervals chain it); ``x``:
+        the caller's state symbol."""
+        p, m = self.model.p, self.model.m
+        xdot = self.rhs[phase](x, p, m)
+        return ca.Function(f"rhs_jac_{phase}", [x, p, m],
+                           [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+
+    # -- named outputs ---------------------------------------------------------------
+    def impact_at(self, transition: str, x, p) -> Impact:
+        """The map of ``transition`` at the pre-impact state ``x`` (numpy, flat arrays)."""
+        return Impact(*(v.ravel() for v in self.impact[transition].np(x, p)))
+
+    def impact_expr(self, transition: str, x, p) -> Impact:
+        """The map of ``transition`` on CasADi expressions (for the NLP)."""
+        return Impact(*self.impact[transition](x, p))
+
+    def energy_at(self, x, p, mv) -> Energy:
+        """The energies (J) of state ``x`` in mode vector ``mv``."""
+        return Energy(*map(float, self.energy.np(x, p, mv).ravel()))
 
     # -- mode helpers -------------------------------------------------------------------
     def mode_vector(self, mode: Mode) -> list[float]:
@@ -284,3 +357,23 @@ class HybridSystem:
             if e.indicator and i != skip:
                 mode[e.indicator] = 1.0 if gi > 0 else 0.0
         return mode
+
+
+def _declared(names: list[str], declared: dict[str, Margin] | None,
+              rule) -> list[tuple[int, str, Margin]]:
+    """(row, name, Margin) of the margins among ``names``: as declared, else by ``rule``."""
+    if declared is not None:
+        unknown = set(declared) - set(names)
+        if unknown:
+            raise ValueError(f"margins declared for unknown names {sorted(unknown)}")
+        return [(j, n, declared[n]) for j, n in enumerate(names) if n in declared]
+    return [(j, n, mg) for j, n in enumerate(names) if (mg := rule(n)) is not None]
+
+
+def _only_guard(phase: Phase) -> str:
+    """The name of the phase's one guard event (a transition that names none needs one)."""
+    guards = [e.name for e in phase.events if e.kind == GUARD]
+    if len(guards) != 1:
+        raise ValueError(f"phase {phase.name!r} has guards {guards}: its transitions must "
+                         f"name the guard they follow (Transition.guard)")
+    return guards[0]

@@ -18,6 +18,7 @@ import casadi as ca
 from .callback import NumericFunction
 from .compile import compiled
 from .hybrid import HybridSystem
+from .rk4 import rk4_sensitivities
 
 _CACHE: dict = {}
 
@@ -33,9 +34,7 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     nx, npar, nm = hs.nx, hs.np, hs.nm
     nz = nx + npar + 1  # z = (x0, p, h)
     x, p, m = ca.SX.sym("x", nx), model.p, model.m
-    xdot = hs.rhs[phase](x, p, m)
-    rhs_jac = ca.Function(f"rhs_jac_{phase}", [x, p, m],
-                          [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+    rhs_jac = hs.rhs_jacobian(phase, x)
     yv = ca.vertcat(hs.outputs[phase].fun(x, p, m), hs.events[phase].fun(x, p, m))
     ny = yv.shape[0]
     y_jac = ca.Function(f"y_jac_{phase}", [x, p, m],
@@ -50,14 +49,8 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
         k, A, B = rhs_jac(xx, P, M)
         return k, ca.mtimes(A, ss) + ca.mtimes(B, Sp)
 
-    # the stage points x + c h k depend on h: their sensitivity gets c k e_h
-    k1, d1 = stage(X, Sm)
-    k2, d2 = stage(X + H / 2 * k1, Sm + H / 2 * d1 + ca.mtimes(k1 / 2, eh))
-    k3, d3 = stage(X + H / 2 * k2, Sm + H / 2 * d2 + ca.mtimes(k2 / 2, eh))
-    k4, d4 = stage(X + H * k3, Sm + H * d3 + ca.mtimes(k3, eh))
-    ksum = k1 + 2 * k2 + 2 * k3 + k4
-    Xn = X + H / 6 * ksum
-    Sn = Sm + H / 6 * (d1 + 2 * d2 + 2 * d3 + d4) + ca.mtimes(ksum / 6, eh)
+    # h is a seed: the stage points x + c h k depend on it
+    Xn, Sn = rk4_sensitivities(stage, X, Sm, H, eh)
     y, Cy, Dy = y_jac(Xn, P, M)
     dY = ca.mtimes(Cy, Sn) + ca.mtimes(Dy, Sp)
     Z = ca.MX.sym("Z", nx + nx * nz)

@@ -1,8 +1,11 @@
 """Figures of a simulated gait: joint angles over time and stick-figure snapshots.
 
-Both functions take the trajectory DataFrame of :func:`pdw_casadi.simulate.simulate`
-(``SimulationResult.trajectory``) and write a PNG (matplotlib, Agg backend: no display
-needed). Angles are in degrees, time in seconds, lengths in metres.
+Every function returns a matplotlib :class:`~matplotlib.figure.Figure`: drawn on the
+caller's axes (``ax=``, one Axes or a sequence, as the function says) or on a new figure
+that belongs to no pyplot window (so importing or calling these never changes the backend,
+and a notebook shows the returned figure). With ``path`` the figure is also written there,
+in the format of the file's extension (PNG, PDF, SVG). Legends sit outside the data. Angles
+are in degrees, time in seconds, lengths in metres.
 
 Leg naming: the model relabels its legs at every foot strike (leg 1 is always the stance
 leg at the start of a step). The angle plot follows the *physical* legs instead: leg A is
@@ -15,21 +18,46 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import LinearSegmentedColormap, Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-matplotlib.use("Agg")
-
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib.colors import LinearSegmentedColormap  # noqa: E402
-
-from .faces import WalkerFaces, faces_from_trajectory  # noqa: E402
+from .faces import WalkerFaces, faces_from_trajectory
 
 __all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_fit", "plot_limit_cycle",
            "plot_stick", "plot_sweep", "snapshot_rows"]
 
 LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
 JOINT_LABELS = {"knee": "knee flexion [deg]", "hip": "hip: thigh from slope normal [deg]"}
+
+
+#: a legend to the right of its axes, outside the data
+OUTSIDE_RIGHT = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0}
+#: a legend below its axes, outside the data
+OUTSIDE_BELOW = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.16), "borderaxespad": 0.0}
+
+
+def _axes(ax, nrows: int, ncols: int, figsize, **kw) -> tuple[Figure, list]:
+    """The figure and its ``nrows`` x ``ncols`` axes (row-major): the caller's ``ax`` (an
+    Axes or a sequence of that many), or a new figure with constrained layout."""
+    n = nrows * ncols
+    if ax is None:
+        fig = Figure(figsize=figsize, layout="constrained")
+        return fig, list(fig.subplots(nrows, ncols, squeeze=False, **kw).ravel())
+    axes = list(np.ravel(np.asarray(ax, dtype=object)))
+    if len(axes) != n:
+        raise ValueError(f"ax: this figure needs {n} axes, got {len(axes)}")
+    return axes[0].figure, axes
+
+
+def _save(fig: Figure, path, dpi: int) -> Figure:
+    """Write ``fig`` to ``path`` (format from its extension) when a path is given."""
+    if path is not None:
+        fig.savefig(Path(path), dpi=dpi)
+    return fig
 
 
 def _faces(trajectory, faces: WalkerFaces | None) -> WalkerFaces:
@@ -96,21 +124,18 @@ def _shade_phases(axes, spans, label_ax, faces: WalkerFaces) -> None:
                           fontsize=8, color="0.25")
 
 
-def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None,
-                faces: WalkerFaces | None = None) -> Path:
+def plot_angles(trajectory: pd.DataFrame, path=None, title: str | None = None,
+                faces: WalkerFaces | None = None, *, ax=None) -> Figure:
     """Joint angles of both legs against time (one panel per joint of the walker: knee
     flexion, thigh minus shank, deg; hip, thigh from the slope normal, deg, as in the
     paper), phases shaded and labelled, steps separated. ``faces``: the walker's names
-    (:func:`pdw_casadi.faces.walker_faces`); default: read off the trajectory.
-    Returns the path written.
+    (:func:`pdw_casadi.faces.walker_faces`); default: read off the trajectory. ``ax``: one
+    Axes per joint. Returns the figure (also written to ``path`` if given).
     """
-    path = Path(path)
     faces = _faces(trajectory, faces)
     joints = [j for j in faces.joints if trajectory is not None
               and f"{j}1_deg" in trajectory] or ["hip"]
-    fig, axes = plt.subplots(len(joints), 1, figsize=(9, 3 * len(joints) + 0.5), sharex=True,
-                             squeeze=False)
-    axes = list(axes[:, 0])
+    fig, axes = _axes(ax, len(joints), 1, (10, 3 * len(joints) + 0.5), sharex=True)
     if trajectory is None or trajectory.empty:
         axes[0].text(0.5, 0.5, "no trajectory recorded", ha="center",
                      transform=axes[0].transAxes)
@@ -125,7 +150,7 @@ def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None,
                         label=f"leg {leg}" + (" (stance in step 0)" if leg == "A" else ""))
         if spans[-1][3] > spans[0][2]:
             axes[0].set_xlim(spans[0][2], spans[-1][3])
-        axes[0].legend(loc="upper left", fontsize=8, framealpha=0.9)
+        axes[0].legend(fontsize=8, **OUTSIDE_RIGHT)
     for ax, joint in zip(axes, joints, strict=True):
         ax.set_ylabel(JOINT_LABELS.get(joint, f"{joint} [deg]"))
         ax.grid(True, lw=0.4, alpha=0.6)
@@ -133,10 +158,7 @@ def plot_angles(trajectory: pd.DataFrame, path, title: str | None = None,
     caption = faces.phase_caption()
     head = title or "Joint angles"
     fig.suptitle(head + (f"\nshaded: {caption}" if caption else ""), fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 120)
 
 
 def _full_state(row: pd.Series, q_names, nx: int) -> np.ndarray:
@@ -184,27 +206,25 @@ def _draw_walker(ax, pts: dict[str, np.ndarray], links, color, lw=1.6, alpha=1.0
         ax.plot(*pts["hip"], "o", ms=6.5, color=color, alpha=alpha)
 
 
-def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | None = None,
-               title: str | None = None) -> Path:
+def plot_stick(hs, trajectory: pd.DataFrame, p, path=None, n: int = 8,
+               step: int | None = None, title: str | None = None, *, ax=None) -> Figure:
     """Stick-figure snapshots of one step (default: the first in ``trajectory``).
 
     Top: the snapshots where they are (the stance toe stays at the origin during a step),
     coloured by time. Bottom: the same snapshots side by side along the slope (a film strip,
     each labelled with its time and phase). Feet are drawn thick, knees and ankles as open
     circles, the hip as a dot; the sloped ground y = -x tan(gamma) is the black line.
-    ``p``: the parameter vector (compliance..., slope) used for the simulation.
+    ``p``: the parameter vector (compliance..., slope) used for the simulation (the slope
+    is its entry ``slope``: the walker's parameter names). ``ax``: two Axes (overlay, film
+    strip). Returns the figure (also written to ``path`` if given).
     """
-    path = Path(path)
     p = np.asarray(p, dtype=float).ravel()
-    gamma = float(p[-1])
-    fig, (ax_o, ax_f) = plt.subplots(2, 1, figsize=(12, 8),
-                                     gridspec_kw={"height_ratios": [1.4, 1.0]})
+    gamma = float(p[hs.model.parameter_names.index("slope")])
+    fig, (ax_o, ax_f) = _axes(ax, 2, 1, (12, 8), gridspec_kw={"height_ratios": [1.4, 1.0]})
     rows = [] if trajectory is None or trajectory.empty else snapshot_rows(trajectory, step, n)
     if not rows:
         ax_o.text(0.5, 0.5, "no trajectory recorded", ha="center", transform=ax_o.transAxes)
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        return path
+        return _save(fig, path, 110)
     q_names = list(hs.model.q_names)
     names = list(hs.point_names)
     links = list(hs.model.links)
@@ -215,7 +235,7 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | No
         snaps.append((float(row["t"]), str(row["phase"]), dict(zip(names, P.T, strict=True))))
     t0, t1 = snaps[0][0], snaps[-1][0]
     cmap = LinearSegmentedColormap.from_list(
-        "viridis_dark", plt.get_cmap("viridis")(np.linspace(0.0, 0.85, 64)))
+        "viridis_dark", matplotlib.colormaps["viridis"](np.linspace(0.0, 0.85, 64)))
     tang = np.array([np.cos(gamma), -np.sin(gamma)])
 
     # overlay at true positions
@@ -227,7 +247,7 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | No
     xs = np.array([xlo, xhi])
     ax_o.plot(xs, -xs * np.tan(gamma), color="k", lw=1.2)
     ax_o.fill_between(xs, -xs * np.tan(gamma), -xs * np.tan(gamma) - 0.05, color="0.85")
-    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(t0, max(t1, t0 + 1e-9)))
+    sm = ScalarMappable(cmap=cmap, norm=Normalize(t0, max(t1, t0 + 1e-9)))
     fig.colorbar(sm, ax=ax_o, label="time t [s]", fraction=0.03, pad=0.01)
     ax_o.set_aspect("equal", adjustable="datalim")
     ax_o.set_xlabel("x [m]")
@@ -255,10 +275,7 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path, n: int = 8, step: int | No
         ax.grid(True, lw=0.4, alpha=0.5)
     fig.suptitle(title or f"One step on a slope of {gamma:.4f} rad "
                  f"({np.degrees(gamma):.2f} deg)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 110)
 
 
 def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
@@ -281,8 +298,8 @@ def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
     return rows
 
 
-def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | None = None,
-                     faces: WalkerFaces | None = None) -> Path:
+def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str | None = None,
+                     faces: WalkerFaces | None = None, *, ax=None) -> Figure:
     """The paper's Fig. 4: phase portraits of each segment of one leg over two steps.
 
     ``trajectory`` holds (at least) two steps from a fixed point; the physical leg is leg 1
@@ -291,6 +308,7 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | Non
     ``(("q1", "q2"), ("q4", "q3"))``. Key instants of each step are marked with the
     walker's transition labels (the 6-link walker: the paper's a+ after foot strike, b
     toe-off, c- / c+ heel strike, a- before foot strike). Angles in rad, rates in rad/s.
+    ``ax``: one Axes per segment. Returns the figure (also written to ``path`` if given).
     """
     faces = _faces(trajectory, faces)
     legs = tuple(tuple(leg) for leg in (legs or faces.legs))
@@ -299,8 +317,7 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | Non
     n_seg = len(legs[0])
     segments = faces.leg_segments if len(faces.leg_segments) == n_seg else \
         tuple(f"segment {i + 1}" for i in range(n_seg))
-    fig, axes = plt.subplots(1, n_seg, figsize=(5 * n_seg, 4.2), squeeze=False)
-    axes = list(axes[0])
+    fig, axes = _axes(ax, 1, n_seg, (5 * n_seg + 1.5, 4.2))
     colors = ("tab:blue", "tab:orange")
     steps = _run_steps(trajectory)
     for k, names in enumerate(legs):
@@ -322,23 +339,20 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path, legs=None, title: str | Non
         ax.set_ylabel("angular velocity (rad/s)")
         ax.set_title(f"({chr(ord('a') + i)}) {what}" if n_seg > 1 else what)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+    axes[-1].legend(fontsize=8, **OUTSIDE_RIGHT)
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 120)
 
 
-def plot_fit(human, models: dict, path, scores: dict | None = None,
-             markers: dict | None = None) -> Path:
+def plot_fit(human, models: dict, path=None, scores: dict | None = None, *,
+             markers: dict | None = None, ax=None) -> Figure:
     """The paper's Fig. 5: knee (a) and hip (b) over the gait cycle, human mean +/- SD and
-    one curve per model (deg against % of the cycle); R^2 in the legend when given;
-    ``markers``: label -> % of the cycle, drawn as vertical lines (gait events; labels
-    starting with "human" dashed)."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    one curve per model (deg against % of the cycle); R^2 in the legends (below the
+    panels) when given; ``markers``: label -> % of the cycle, drawn as vertical lines (gait
+    events; labels starting with "human" dashed). ``ax``: two Axes. Returns the figure
+    (also written to ``path``)."""
+    fig, axes = _axes(ax, 1, 2, (11, 5.2))
     pct = human.cycle_pct
     for ax, name, mean, sd in ((axes[0], "knee", human.knee_deg, human.knee_sd_deg),
                                (axes[1], "hip", human.hip_deg, human.hip_sd_deg)):
@@ -357,14 +371,10 @@ def plot_fit(human, models: dict, path, scores: dict | None = None,
         ax.set_xlabel("gait cycle (%)")
         ax.set_ylabel(f"{name} angle (deg)")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, **OUTSIDE_BELOW)
     axes[0].set_title("(a) knee")
     axes[1].set_title("(b) hip (model thigh from the slope normal)")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 120)
 
 
 #: short labels of sweep events on the bifurcation figure
@@ -372,15 +382,15 @@ EVENT_LABELS = {"fold": "LP", "period_doubling": "PD", "neimark_sacker": "NS",
                 "boundary": "BND", "branch_end": "END"}
 
 
-def plot_sweep(table: pd.DataFrame, events, parameter: str, path,
-               title: str | None = None) -> Path:
+def plot_sweep(table: pd.DataFrame, events, parameter: str, path=None,
+               title: str | None = None, *, ax=None) -> Figure:
     """Bifurcation figure of a sweep: step length (m), speed (m/s) and spectral radius of
     dP/dx against the parameter. Stable stretches solid, unstable dashed (a stretch is
     stable when both its end points are), points breaking the gait pattern as grey crosses,
     located events as dotted vertical lines labelled LP (fold), PD (period doubling), NS
-    (Neimark-Sacker), BND (gait-pattern boundary), END (branch lost)."""
-    path = Path(path)
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    (Neimark-Sacker), BND (gait-pattern boundary), END (branch lost). ``ax``: three Axes.
+    Returns the figure (also written to ``path`` if given)."""
+    fig, axes = _axes(ax, 3, 1, (9.5, 8), sharex=True)
     ok = table[table["converged"].astype(bool)]
     quantities = (("step_length_m", "step length [m]"), ("speed_m_s", "speed [m/s]"),
                   ("spectral_radius", "spectral radius of dP/dx [-]"))
@@ -412,12 +422,9 @@ def plot_sweep(table: pd.DataFrame, events, parameter: str, path,
         axes[0].annotate(EVENT_LABELS.get(e.kind, e.kind), xy=(e.value, 1.0),
                          xycoords=("data", "axes fraction"), xytext=(0, 2),
                          textcoords="offset points", ha="center", va="bottom", fontsize=8)
-    handles = [plt.Line2D([], [], color="tab:blue", lw=1.6, label="stable, valid"),
-               plt.Line2D([], [], color="tab:red", ls="--", lw=1.6, label="unstable or invalid")]
-    axes[0].legend(handles=handles, fontsize=8, loc="best")
+    handles = [Line2D([], [], color="tab:blue", lw=1.6, label="stable, valid"),
+               Line2D([], [], color="tab:red", ls="--", lw=1.6, label="unstable or invalid")]
+    axes[0].legend(handles=handles, fontsize=8, **OUTSIDE_RIGHT)
     axes[2].set_xlabel(parameter)
     fig.suptitle(title or f"Sweep over {parameter}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 120)

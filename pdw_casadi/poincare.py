@@ -18,20 +18,15 @@ import casadi as ca
 import numpy as np
 
 from .compile import Lazy, LazyGroup
+from .errors import PoincareError
 from .hybrid import HybridSystem
+from .problem import Problem, load_problem
+from .rk4 import rk4_sensitivities
 from .simulate import Segment, SimulationResult, Simulator
 from .system import hybrid_system
 
 _SENS_CHUNKS = (32, 8, 1)
 
-
-class PoincareError(RuntimeError):
-    """The step from this state does not complete (the gait fails); ``failure`` says why."""
-
-    def __init__(self, failure):
-        super().__init__(f"step failed: {failure.reason} in phase {failure.phase} at "
-                         f"t = {failure.time:.4f} s")
-        self.failure = failure
 
 
 @dataclass
@@ -57,7 +52,7 @@ class _Sensitivities:
         nx, npar, nm = hs.nx, hs.np, hs.nm
         nz = ns + npar
         self.ns, self.nz = ns, nz
-        x, p, m = ca.SX.sym("x", nx), model.p, model.m
+        x, p = ca.SX.sym("x", nx), model.p
         xs = ca.SX.sym("xs", ns)
         x0 = model.section_to_full(xs, p)
         self.section = Lazy(ca.Function("section_jac", [xs, p], [
@@ -68,10 +63,8 @@ class _Sensitivities:
         Sp = ca.DM(ca.horzcat(ca.DM.zeros(npar, ns), ca.DM.eye(npar)))
         self.Sp = np.asarray(Sp)
         self.chunks, self.partial = {}, {}
-        for name, rhs in hs.rhs.items():
-            xdot = rhs(x, p, m)
-            jac = ca.Function(f"rhs_jac_{name}", [x, p, m],
-                              [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+        for name in hs.rhs:
+            jac = hs.rhs_jacobian(name, x)
             X, S = ca.MX.sym("X", nx), ca.MX.sym("S", nx * nz)
             H, P, M = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm)
             Sm = ca.reshape(S, nx, nz)
@@ -80,12 +73,7 @@ class _Sensitivities:
                 k, A, B = jac(xx, P, M)
                 return k, ca.mtimes(A, ss) + ca.mtimes(B, Sp)
 
-            k1, d1 = f(X, Sm)
-            k2, d2 = f(X + H / 2 * k1, Sm + H / 2 * d1)
-            k3, d3 = f(X + H / 2 * k2, Sm + H / 2 * d2)
-            k4, d4 = f(X + H * k3, Sm + H * d3)
-            Xn = X + H / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-            Sn = Sm + H / 6 * (d1 + 2 * d2 + 2 * d3 + d4)
+            Xn, Sn = rk4_sensitivities(f, X, Sm, H)
             one = ca.Function(f"sens_{name}", [X, S, H, P, M],
                               [ca.vertcat(Xn, ca.reshape(Sn, -1, 1))])
             # partial step: also d x_next / d h (the flow at the event, for the saltation term)
@@ -158,9 +146,8 @@ class PoincareMap:
         for item in plan.items:
             if isinstance(item, Segment):
                 x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
-            else:
-                name = item[1]
-                xp, Jx, Jp = hs.impact_jac[name].np(x, p)
+            else:  # a TransitionItem
+                xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
         J_out = np.asarray(sens.section_out(x))
@@ -251,6 +238,4 @@ class _PoincareCallback(ca.Callback):
 
 def poincare_map(problem) -> PoincareMap:
     """The Poincare map of ``problem``'s walker (see :class:`PoincareMap`)."""
-    from .problem import Problem, load_problem
-
     return PoincareMap(problem if isinstance(problem, Problem) else load_problem(problem))

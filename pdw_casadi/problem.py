@@ -9,6 +9,7 @@ section state and numerical settings. Loading validates every key and value and 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import tomllib
 from collections.abc import Mapping
@@ -18,12 +19,9 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .errors import ProblemError
 from .resources import bundled_names, resolve
-
-
-class ProblemError(ValueError):
-    """A problem file or override is invalid (message names the file and key)."""
-
+from .walkers import FAMILIES, get_family
 
 #: numerical settings with their defaults (s, s)
 NUMERICS_DEFAULTS = {"step_size": 5e-4, "max_phase_time": 2.0}
@@ -86,14 +84,20 @@ class Problem:
     def parameter_names(self) -> list[str]:
         return [*self.compliance, "slope"]
 
-    def with_parameters(self, p) -> Problem:
-        """A copy with compliance and slope taken from a parameter vector (see parameter_vector)."""
+    def split_parameters(self, p) -> tuple[dict[str, float], float]:
+        """A parameter vector (see parameter_vector) as (compliance by name, slope in rad)."""
         p = np.asarray(p, dtype=float).ravel()
         if p.size != len(self.compliance) + 1:
             raise ProblemError(f"{self.name}: parameter vector has {p.size} values, "
                                f"expected {len(self.compliance) + 1}")
-        comp = dict(zip(self.compliance, p[:-1], strict=True))
-        return self.replace(compliance=comp, slope=float(p[-1]))
+        named = dict(zip(self.parameter_names, map(float, p), strict=True))
+        slope = named.pop("slope")
+        return named, slope
+
+    def with_parameters(self, p) -> Problem:
+        """A copy with compliance and slope taken from a parameter vector (see parameter_vector)."""
+        comp, slope = self.split_parameters(p)
+        return self.replace(compliance=comp, slope=slope)
 
     def with_state(self, x) -> Problem:
         """A copy whose initial section state is ``x`` (array in state order, or a mapping)."""
@@ -176,15 +180,13 @@ def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
     The problem file's own values are checked when it is loaded; this applies the same
     limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids.
     """
-    from .walkers import get_family
-
     fam = get_family(problem.family)
     for k, v in values.items():
         if k == "slope":
             if not abs(v) < math.pi / 4:
                 raise ProblemError(f"{where}: slope = {v:g} rad must be below pi/4 rad")
             continue
-        if k in fam.NONNEGATIVE_COMPLIANCE and v < 0:
+        if k in fam.nonnegative_compliance and v < 0:
             raise ProblemError(f"{where}: '{k}' = {v:g} must be >= 0")
         if k in problem.compliance_bounds:
             lo, hi = problem.compliance_bounds[k]
@@ -216,11 +218,9 @@ def _section(raw: Mapping, where: str, name: str, required: list[str],
 
 
 def _check_values(pb: Problem, where) -> None:
-    from .walkers import get_family
-
     fam = get_family(pb.family)
     for k, v in pb.anthropometry.items():
-        if k in fam.POSITIVE_KEYS and not v > 0:
+        if k in fam.positive_keys and not v > 0:
             raise ProblemError(f"{where}: 'anthropometry.{k}' must be positive, got {v}")
     for k, v in pb.numerics.items():
         if not v > 0:
@@ -236,7 +236,7 @@ def _check_values(pb: Problem, where) -> None:
     for k, v in pb.compliance.items():
         if not math.isfinite(v):
             raise ProblemError(f"{where}: 'compliance.{k}' must be finite")
-        if k in fam.NONNEGATIVE_COMPLIANCE and v < 0:
+        if k in fam.nonnegative_compliance and v < 0:
             raise ProblemError(f"{where}: 'compliance.{k}' must be >= 0, got {v}")
     for k, (lo, hi) in pb.compliance_bounds.items():
         if not lo <= hi:
@@ -267,8 +267,6 @@ def load_problem(name_or_path: str | Path) -> Problem:
 
 def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None = None) -> Problem:
     """Validate a parsed problem (same layout as the TOML file)."""
-    from .walkers import FAMILIES, get_family
-
     where = str(source or name)
     unknown = [k for k in raw if k not in _SECTIONS]
     if unknown:
@@ -286,10 +284,10 @@ def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None =
                            f"{', '.join(FAMILIES)}")
     fam = get_family(family)
     env = _section(raw, where, "environment", ["g", "slope"])
-    anthro = _section(raw, where, "anthropometry", list(fam.ANTHROPOMETRY_KEYS))
-    comp = _section(raw, where, "compliance", list(fam.COMPLIANCE_KEYS)) \
-        if fam.COMPLIANCE_KEYS else _section(raw, where, "compliance", [], {})
-    state = _section(raw, where, "initial_state", list(fam.STATE_KEYS))
+    anthro = _section(raw, where, "anthropometry", list(fam.anthropometry_keys))
+    comp = _section(raw, where, "compliance", list(fam.compliance_keys)) \
+        if fam.compliance_keys else _section(raw, where, "compliance", [], {})
+    state = _section(raw, where, "initial_state", list(fam.state_keys))
     numerics = _section(raw, where, "numerics", [], NUMERICS_DEFAULTS)
     validity = _section(raw, where, "validity", [], VALIDITY_DEFAULTS)
     bounds_raw = raw.get("compliance_bounds", {})
@@ -348,8 +346,6 @@ def load_overrides(path: str | Path, what: str) -> dict[str, float]:
 def read_table(path: Path, what: str):
     """Parse a JSON or TOML file: by suffix (``.json`` / ``.toml``, any case), else JSON when
     the text parses as JSON, else TOML. Raises :class:`ProblemError` naming the file."""
-    import json
-
     p = Path(path)
     try:
         text = p.read_text()

@@ -18,9 +18,9 @@ the full states at every shooting node. Constraints (all exact, no smoothing):
 - the sign of every enabled event (guards, switches, failures) at the sampled RK4 states
   inside each segment: no event is crossed early (sampled: grazing between samples is caught
   by the re-simulation check of :mod:`pdw_casadi.fit`);
-- validity margins at the samples: contact normal forces ``N_*`` >= min_normal_force,
-  centre-of-pressure margins ``copmargin_*`` >= min_cop_margin, swing clearance
-  ``clearance_*`` >= min_clearance after 20 % of the phase (ramped from 0 at toe-off);
+- validity margins at the samples, as the walker declares them (:mod:`pdw_casadi.margins`):
+  contact normal forces >= min_normal_force, centre-of-pressure margins >= min_cop_margin,
+  swing clearance >= min_clearance after 20 % of the phase (ramped from 0 at toe-off);
   impact checks (impulses, post-impact velocities) > 0 and guard requirements > 0.
 
 Knee-spring engagement happens at its equilibrium angle by construction (the segment ends on
@@ -74,12 +74,10 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
     starting duration (besides one interval of headroom): a segment's duration is bounded
     by n_int n_sub h_max, so without it a 7 ms segment can never last 20 ms."""
     specs: list[SegmentSpec] = []
-    items = list(plan.items)
-    for i, item in enumerate(items):
+    for i, item in enumerate(plan.items):
         if not isinstance(item, Segment):
             continue
-        nxt = items[i + 1] if i + 1 < len(items) else None
-        tr = nxt[1] if isinstance(nxt, tuple) and nxt[0] == "transition" else None
+        tr = plan.transition_after(i)
         ev = hs.event_list[item.phase][item.event]
         if ev.kind not in (GUARD, SWITCH):
             raise ValueError(f"plan segment ends on failure event {ev.name!r}")
@@ -194,7 +192,7 @@ class ShootingNLP:
                 cols.append(x)
             Xs.append(np.column_stack(cols))
             if s.transition is not None:
-                x = hs.impact[s.transition](x, p)[0].full().ravel()
+                x = hs.impact_at(s.transition, x, p).x_plus
         pf = [self.p0[self.param_names.index(n)] / sc for n, sc in zip(self.free, self.p_scale,
                                                                           strict=True)]
         T = [s.duration0 for s in self.specs]
@@ -289,27 +287,20 @@ class ShootingNLP:
             # impact the contact forces jump)
             ts = self.sample_t[k]
             y0 = hs.outputs[s.phase](X[:, 0], p, mv)
-            for j, name in enumerate(onames[:e0]):
-                row = ca.horzcat(y0[j], Y[j, cols])
-                if name.startswith("N_"):
-                    add(row, v.get("min_normal_force", 0.0) + MARGIN_SLACK, ca.inf,
-                        f"margin[{k}]:{name}")
-                elif name.startswith("copmargin_"):
-                    add(row, v.get("min_cop_margin", 0.0) + MARGIN_SLACK, ca.inf,
-                        f"margin[{k}]:{name}")
-                elif name.startswith("clearance_"):
-                    # not at the start node: the toe leaves the ground there (height 0 by
-                    # the previous phase's contact), and a pinned row only degrades the KKT
-                    row = Y[j, cols]
-                    # the simulator's margin counts after 20 % of the phase; the demand ramps
-                    # up over 18-20 % so that it stays continuous in the durations
-                    frac = (ts[cols] - phase_start[s.phase]) / (0.2 * phase_len[s.phase])
-                    ramp = ca.fmax(0, ca.fmin(1, 10 * frac - 9))
-                    need = (v.get("min_clearance", 0.0) + MARGIN_SLACK) * ramp
-                    add(row - need, 0, ca.inf, f"margin[{k}]:{name}")
+            for j, name, spec in hs.phase_margins[s.phase]:
+                need = spec.minimum(v) + MARGIN_SLACK
+                if spec.active_after <= 0:
+                    add(ca.horzcat(y0[j], Y[j, cols]), need, ca.inf, f"margin[{k}]:{name}")
+                    continue
+                # a margin that counts late in its phase (a swing foot's clearance) is not
+                # demanded at the start node: the foot leaves the ground there (height 0 by
+                # the previous phase's contact), and a pinned row only degrades the KKT
+                demand = spec.demand(ts[cols] - phase_start[s.phase], phase_len[s.phase], need)
+                add(Y[j, cols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
-                x_plus, _, chk, _ = hs.impact[s.transition](xe, p)
+                imp = hs.impact_expr(s.transition, xe, p)
+                x_plus, chk = imp.x_plus, imp.checks
                 if chk.shape[0]:
                     add(chk, 1e-9, ca.inf, f"impact_check[{s.transition}]")
                 if k + 1 < len(self.specs):

@@ -17,6 +17,8 @@ import numpy as np
 import pandas as pd
 
 from .hybrid import FAILURE, GUARD, HybridSystem
+from .margins import check_key, phase_key
+from .problem import Problem, load_problem
 from .system import hybrid_system
 
 TAU_TOL = 1e-13  # s, event-time tolerance of the Newton location
@@ -71,11 +73,24 @@ class Segment:
     sign: int = 0
 
 
+@dataclass(frozen=True)
+class TransitionItem:
+    """A transition taken in a step's plan (its name: a
+    :class:`~pdw_casadi.hybrid.Transition`'s)."""
+
+    name: str
+
+
 @dataclass
 class Plan:
     """The discrete map of one step: segments and transitions, in order."""
 
-    items: list = field(default_factory=list)  # Segment or ("transition", name)
+    items: list[Segment | TransitionItem] = field(default_factory=list)
+
+    def transition_after(self, i: int) -> str | None:
+        """The name of the transition right after item ``i``, or None (a mode switch)."""
+        nxt = self.items[i + 1] if i + 1 < len(self.items) else None
+        return nxt.name if isinstance(nxt, TransitionItem) else None
 
 
 @dataclass
@@ -156,11 +171,52 @@ class SimulationResult:
         return self.trajectory if self.trajectory is not None else pd.DataFrame()
 
 
+@dataclass
+class _PhaseRun:
+    """What the phases of one step accumulate, passed from phase to phase (never kept on the
+    :class:`Simulator`, so that its calls share no state): the step's index, the energy lost
+    where a knee spring disengages (J) and the mode switches seen, (phase, event, t in s)."""
+
+    step: int
+    spring_loss: float = 0.0
+    switches: list[tuple[str, str, float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _PhaseEvents:
+    """The event table of a phase as arrays: arming thresholds, the armed events' indices,
+    crossing directions."""
+
+    arm: np.ndarray
+    arm_idx: np.ndarray
+    direction: np.ndarray
+
+    @classmethod
+    def of(cls, evs) -> _PhaseEvents:
+        arm = np.array([e.arm_above for e in evs])
+        return cls(arm, np.flatnonzero(arm > 0), np.array([e.direction for e in evs]))
+
+    def crossings(self, Gp, G, enabled, armed):
+        """Mask (events x steps) of enabled events crossing zero in their direction between
+        the columns of Gp (values before each step) and G (after)."""
+        a = Gp
+        if self.arm_idx.size:
+            a = Gp.copy()
+            for i in self.arm_idx:
+                # an armed event counts only once g has exceeded arm_above in this phase
+                seen = np.maximum.accumulate(Gp[i] > self.arm[i]) | armed[i]
+                a[i] = np.where(seen, Gp[i], -np.inf if self.direction[i] <= 0 else np.inf)
+        down = (a > 0) & (G <= 0)
+        up = (a < 0) & (G >= 0)
+        d = self.direction[:, None]
+        mask = np.where(d < 0, down, np.where(d > 0, up, down | up))
+        return mask & enabled[:, None]
+
+
 class Simulator:
     """Event-driven simulation of one walker; keeps CasADi functions, reused across calls."""
 
     def __init__(self, problem, hs: HybridSystem | None = None):
-        self._step = 0
         self.problem = problem
         self.hs = hs or hybrid_system(problem)
         self.h = float(problem.numerics["step_size"])
@@ -196,24 +252,12 @@ class Simulator:
             tau = new
         return tau
 
-    def _crossings(self, Gp, G, enabled, armed):
-        """Mask (events x steps) of enabled events crossing zero in their direction between
-        the columns of Gp (values before each step) and G (after)."""
-        a = Gp
-        if self._arm_idx.size:
-            a = Gp.copy()
-            for i in self._arm_idx:
-                # an armed event counts only once g has exceeded arm_above in this phase
-                seen = np.maximum.accumulate(Gp[i] > self._arm[i]) | armed[i]
-                a[i] = np.where(seen, Gp[i], -np.inf if self._dir[i] <= 0 else np.inf)
-        down = (a > 0) & (G <= 0)
-        up = (a < 0) & (G >= 0)
-        d = self._dir[:, None]
-        mask = np.where(d < 0, down, np.where(d > 0, up, down | up))
-        return mask & enabled[:, None]
+    def run_phase(self, phase, x, p, mode, t0, rec, plan, run: _PhaseRun | None = None):
+        """Integrate one phase from x until its guard; returns (x_end, mode, t, event, fail).
 
-    def run_phase(self, phase, x, p, mode, t0, rec, plan):
-        """Integrate one phase from x until its guard; returns (x_end, mode, t, event, fail)."""
+        ``run``: the step's accumulator (mode switches, disengagement losses); default: a
+        fresh one for step 0."""
+        run = run if run is not None else _PhaseRun(0)
         hs, h = self.hs, self.h
         evs = hs.event_list[phase]
         mode = hs.refresh_indicators(phase, x, p, mode)
@@ -221,13 +265,12 @@ class Simulator:
         mva = np.array(mv)  # for the compiled calls (a list costs a conversion per call)
         x = np.asarray(x, float).ravel()
         if rec is not None:
-            rec.append((phase, mv, np.array([t0]), x.reshape(-1, 1), self._step))
+            rec.append((phase, mv, np.array([t0]), x.reshape(-1, 1), run.step))
         enabled = np.array([e.enabled(mode) for e in evs])
         events, step = hs.events[phase].np, hs.step[phase].np
         g_prev = events(x, p, mva).ravel()
-        arm = np.array([e.arm_above for e in evs])
-        self._arm, self._arm_idx = arm, np.flatnonzero(arm > 0)
-        self._dir = np.array([e.direction for e in evs])
+        table = _PhaseEvents.of(evs)
+        arm = table.arm
         armed = g_prev > arm
         t = 0.0
         n_full = 0
@@ -245,11 +288,11 @@ class Simulator:
                 cols = ()
             else:
                 Gp = np.column_stack([g_prev, G[:, :-1]])
-                mask = self._crossings(Gp, G, enabled, armed)
+                mask = table.crossings(Gp, G, enabled, armed)
                 cols = np.flatnonzero(mask.any(axis=0))
             if len(cols) == 0:
                 if rec is not None:
-                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, self._step))
+                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, run.step))
                 x, g_prev = X[:, -1], G[:, -1]
                 armed |= (G > arm[:, None]).any(axis=1)
                 t += K * h
@@ -266,7 +309,7 @@ class Simulator:
             x_before = X[:, hit_k - 1] if hit_k > 0 else x
             if rec is not None and hit_k > 0:
                 rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k],
-                            self._step))
+                            run.step))
             t += hit_k * h
             n_full += hit_k
             taus = [(self._locate(phase, x_before, p, mva, i, h, float(Gp[i, hit_k]),
@@ -278,7 +321,7 @@ class Simulator:
             ev = evs[idx]
             sign = 1 if Gp[idx, hit_k] < 0 else -1  # crossing direction
             if rec is not None:
-                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], self._step))
+                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], run.step))
             plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, int(idx), sign))
             n_full = 0
             if not np.abs(x_e[:nq2]).max() <= Q_LIMIT \
@@ -299,8 +342,8 @@ class Simulator:
                 mode = ev.effect(mode, sign)
             mode = hs.refresh_indicators(phase, x_e, p, mode, skip=idx)
             new_mv = hs.mode_vector(mode)
-            self._spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
-            self._switches.append((phase, ev.name, t0 + t))
+            run.spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
+            run.switches.append((phase, ev.name, t0 + t))
             mv, mva = new_mv, np.array(new_mv)
             enabled = np.array([e.enabled(mode) for e in evs])
             en = np.flatnonzero(enabled)
@@ -310,7 +353,7 @@ class Simulator:
             x = x_e
 
     def _spring(self, x, p, mv) -> float:
-        return float(self.hs.energy.np(x, p, mv)[2, 0])
+        return self.hs.energy_at(x, p, mv).spring
 
     def _energy(self, x, p, mv) -> float:
         return float(np.sum(self.hs.energy.np(x, p, mv)))
@@ -346,29 +389,28 @@ class Simulator:
             if not np.all(np.isfinite(x)):
                 failure = Failure("non_finite_state", k, t, first)
                 break
-            self._step = k
+            run = _PhaseRun(k)
             sr = StepRecord(k, t, [], xs.copy())
             mode = hs.refresh_indicators(first, x, p, mode)
             sr.energy_start_J = self._energy(x, p, hs.mode_vector(mode))
             w0 = x[-1]
-            self._spring_loss = 0.0
-            self._switches = []
             records.append(sr)
             phase = first
-            margins: dict[str, float] = {}
+            step_margins: dict[str, float] = {}
             while True:
                 n_rec = len(rec) if rec is not None else 0
-                x_end, mode, dt, ev, fail = self.run_phase(phase, x, p, mode, t, rec, sr.plan)
-                for ph, name, te in self._switches:
+                x_end, mode, dt, ev, fail = self.run_phase(phase, x, p, mode, t, rec, sr.plan,
+                                                           run)
+                for ph, name, te in run.switches:
                     event_rows.append({"step": k, "phase": ph, "event": name, "t": te,
                                        "kind": "switch"})
-                self._switches = []
-                self._phase_margins(phase, rec, n_rec, p, margins, t, dt)
+                run.switches.clear()
+                self._phase_margins(phase, rec, n_rec, p, step_margins, t, dt)
                 t += dt
                 sr.phases.append((phase, dt))
                 if fail is not None and ev is not None and ev.kind == FAILURE:
                     # a physical failure only counts if the energy balance still holds
-                    drift = self._drift(sr, x_end, p, mode, w0)
+                    drift = self._drift(sr, run, x_end, p, mode, w0)
                     if drift is not None:
                         fail = (f"{DIVERGENCE}: the energy balance is off by {drift:.3g} J "
                                 f"when '{fail}' was reached; {_ADVICE}")
@@ -388,17 +430,18 @@ class Simulator:
                     break
                 event_rows.append({"step": k, "phase": phase, "event": ev.name, "t": t,
                                    "kind": "guard"})
-                tr = transitions[phase]
+                tr = transitions[(phase, ev.name)]
                 mv = hs.mode_vector(mode)
                 if tr.ends_step:
                     sr.step_length = float(hs.step_length.np(x_end, p)[0, 0])
-                x_plus, imp, chk, x_post = (v.ravel() for v in hs.impact[tr.name].np(x_end, p))
-                sr.plan.items.append(("transition", tr.name))
-                ke = hs.energy.np(x_end, p, mv).ravel()
-                ke_post = float(hs.energy.np(x_post, p, mv)[0, 0])
-                sr.impact_loss_J += ke[0] - ke_post
+                imp = hs.impact_at(tr.name, x_end, p)
+                x_plus, chk = imp.x_plus, imp.checks
+                sr.plan.items.append(TransitionItem(tr.name))
+                ke = hs.energy_at(x_end, p, mv)
+                ke_post = hs.energy_at(imp.x_post, p, mv).kinetic
+                sr.impact_loss_J += ke.kinetic - ke_post
                 for name, v in zip(hs.check_names[tr.name], chk, strict=True):
-                    margins[f"{tr.name}:{name}"] = float(v)
+                    step_margins[check_key(tr.name, name)] = float(v)
                 bad = [n for n, v in zip(hs.check_names[tr.name], chk, strict=True) if v <= 0]
                 if bad:
                     failure = Failure(f"{tr.name}:{bad[0]}", k, t, phase,
@@ -411,15 +454,15 @@ class Simulator:
                     x = x_end
                     break
                 new_mode = hs.refresh_indicators(tr.target, x_plus, p, new_mode)
-                self._spring_loss += ke[2] - self._spring(x_plus, p, hs.mode_vector(new_mode))
+                run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))
                 mode, x, phase = new_mode, x_plus, tr.target
                 if tr.ends_step:
                     sr.dissipated_damping_J = x_end[-1] - w0
-                    sr.spring_loss_J = self._spring_loss
-                    sr.energy_end_J = ke_post + ke[1] + self._spring(x_plus, p,
+                    sr.spring_loss_J = run.spring_loss
+                    sr.energy_end_J = ke_post + ke.potential + self._spring(x_plus, p,
                                                                      hs.mode_vector(mode))
                     sr.x_section_end = hs.full_to_section.np(x).ravel()
-                    sr.margins = margins
+                    sr.margins = step_margins
                     xs = sr.x_section_end
                     break
             if failure is not None:
@@ -449,25 +492,22 @@ class Simulator:
         traj = self._trajectory(rec, records, p) if record else None
         return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
 
-    def _drift(self, sr, x, p, mode, w0) -> float | None:
+    def _drift(self, sr, run: _PhaseRun, x, p, mode, w0) -> float | None:
         """The energy-balance residual (J) of the step so far at state ``x`` when it exceeds
         :func:`energy_tolerance`, else None."""
         e_now = self._energy(x, p, self.hs.mode_vector(mode))
-        lost = (x[-1] - w0) + sr.impact_loss_J + self._spring_loss
+        lost = (x[-1] - w0) + sr.impact_loss_J + run.spring_loss
         drift = (sr.energy_start_J - e_now) - lost
         if abs(drift) <= energy_tolerance(sr.energy_start_J, e_now):
             return None
         return float(drift)
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
-        """Smallest contact force (N), CoP margin (m) and swing clearance (m) of a phase.
-
-        Clearance counts after the first 20 % of the phase (the swing toe starts on the
-        ground at toe-off).
-        """
+        """Smallest value of each validity margin of a phase (contact forces in N, CoP
+        margins and clearances in m), over the samples its :class:`Margin` counts."""
         if rec is None:
             return
-        names = self.hs.output_names[phase]
+        specs = self.hs.phase_margins[phase]
         entries = rec[n_rec:]
         i = 0
         while i < len(entries):
@@ -480,15 +520,10 @@ class Simulator:
             X = np.hstack([e[3] for e in entries[i:j]])
             i = j
             out = self.hs.outputs[ph](X, p, mv).full()
-            late = ts >= t0 + 0.2 * dt
-            for j_, name in enumerate(names):
-                vals = out[j_]
-                if name.startswith("clearance_"):
-                    vals = vals[late]
-                elif not name.startswith(("N_", "copmargin_")):
-                    continue
+            for row, name, spec in specs:
+                vals = out[row][spec.counted(ts, t0, dt)]
                 if vals.size:
-                    key = f"{phase}:min_{name}"
+                    key = phase_key(phase, name)
                     margins[key] = float(min(vals.min(), margins.get(key, math.inf)))
 
     def _trajectory(self, rec, records, p) -> pd.DataFrame:
@@ -555,8 +590,6 @@ def simulate(problem, steps: int = 1, state=None, parameters=None, record: bool 
         parameters: compliance + slope vector; default: the problem's.
         record: keep the full trajectory DataFrame (off for speed in Newton / sweeps).
     """
-    from .problem import Problem, load_problem
-
     if not isinstance(problem, Problem):
         problem = load_problem(problem)
     sim = Simulator(problem)

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .bifurcation import Event, Locator, boundary, branch_end, crossings
+from .bifurcation import BranchEvent, Locator, boundary, branch_end, crossings
 from .continuation import (
     Branch,
     BranchPoint,
@@ -41,14 +41,13 @@ from .continuation import (
     predict,
     with_value,
 )
+from .curves import cycle_curves, fit_scores
+from .errors import NoStartGait, ProblemError
 from .fixed_point import FixedPointResult
+from .gait_data import load_gait_curves
 from .parallel import map_tasks
-from .problem import Problem, ProblemError, check_bounds
-
-
-class NoStartGait(ProblemError):
-    """The sweep's start (the problem's own parameters and initial state) has no valid
-    fixed point: nothing to follow."""
+from .problem import Problem, check_bounds
+from .simulate import Simulator
 
 
 @dataclass(frozen=True)
@@ -76,7 +75,7 @@ class SweepResult:
 
     parameter: str
     table: pd.DataFrame
-    events: list[Event]
+    events: list[BranchEvent]
     mode: str
     start_value: float
     grid: list[float] = field(default_factory=list)
@@ -134,17 +133,12 @@ def point_row(problem: Problem, parameter: str, point: BranchPoint, gait=None) -
 
 @functools.lru_cache(maxsize=4)
 def _gait_curves(source: str):
-    from .gait_data import load_gait_curves
-
     return load_gait_curves(source)
 
 
 def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
     """R^2 of the gait cycle of fixed point ``res`` against the gait file ``gait`` (NaN when
     the point is not a converged gait)."""
-    from .curves import cycle_curves, fit_scores
-    from .simulate import Simulator
-
     human = _gait_curves(str(gait))
     nan = {"r2_knee": math.nan, "r2_hip": math.nan}
     if human.thigh_deg is not None:
@@ -156,7 +150,7 @@ def gait_scores(problem: Problem, res: FixedPointResult, gait: str) -> dict:
     return nan if curves is None else fit_scores(curves, human)
 
 
-def stable_ranges(table: pd.DataFrame, events: list[Event], parameter: str) -> list[dict]:
+def stable_ranges(table: pd.DataFrame, events: list[BranchEvent], parameter: str) -> list[dict]:
     """See :meth:`SweepResult.stable_ranges`."""
     rows = table[table["converged"].astype(bool)].sort_values(parameter, kind="stable")
     rows = rows.drop_duplicates(subset=parameter)
@@ -208,7 +202,7 @@ class _Leg:
     gait: str | None
 
 
-def _events_along(branch: Branch, leg: _Leg) -> list[Event]:
+def _events_along(branch: Branch, leg: _Leg) -> list[BranchEvent]:
     s = leg.settings
     loc = Locator(leg.corrector, leg.index, leg.parameter, s.predictor)
     xtol = s.xtol * leg.spacing
@@ -225,7 +219,8 @@ def _events_along(branch: Branch, leg: _Leg) -> list[Event]:
 
 
 def run_leg(leg: _Leg, on_row: Callable[[dict], None] | None = None,
-            on_grid_point: Callable[[], None] | None = None) -> tuple[list[dict], list[Event]]:
+            on_grid_point: Callable[[], None] | None = None
+            ) -> tuple[list[dict], list[BranchEvent]]:
     """Follow one branch and locate its events; rows exclude the (shared) start point."""
     rows: list[dict] = []
 
@@ -330,13 +325,13 @@ def sweep(problem: Problem, values, parameter: str = "slope", mode: str = "conti
 
 
 def _continuation(problem, parameter, index, start, grid, corrector, settings, spacing,
-                  workers, scheduler, gait, emit, progress) -> list[Event]:
+                  workers, scheduler, gait, emit, progress) -> list[BranchEvent]:
     below = sorted((v for v in grid if v < start.value and not _same(v, start.value)),
                    reverse=True)
     above = sorted(v for v in grid if v > start.value and not _same(v, start.value))
     legs = [_Leg(problem, parameter, index, start, targets, corrector, settings, spacing, b,
                  gait) for b, targets in enumerate((below, above), start=1) if targets]
-    events: list[Event] = []
+    events: list[BranchEvent] = []
     if workers <= 1 and scheduler is None:
         for leg in legs:  # stream row by row
             on_grid = (lambda: progress(1)) if progress else None
@@ -360,7 +355,7 @@ def _same(a: float, b: float) -> bool:
 
 
 def _grid(problem, parameter, index, start, grid, corrector, settings, spacing, workers,
-          scheduler, gait, emit, progress) -> list[Event]:
+          scheduler, gait, emit, progress) -> list[BranchEvent]:
     tasks = [_GridTask(problem, parameter, index, start, v, corrector, gait)
              for v in grid if not _same(v, start.value)]
     points = [start]
@@ -373,7 +368,7 @@ def _grid(problem, parameter, index, start, grid, corrector, settings, spacing, 
     loc = Locator(corrector, index, parameter, settings.predictor)
     xtol = settings.xtol * spacing
     bisect_tol = spacing / 2 ** settings.refinements
-    events: list[Event] = []
+    events: list[BranchEvent] = []
     for a, b in zip(points[:-1], points[1:], strict=True):
         if a.result.converged and b.result.converged:
             events += crossings(a, b, loc, xtol)

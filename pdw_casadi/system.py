@@ -7,14 +7,13 @@ graph; only a different family, anthropometry or gravity does.
 from __future__ import annotations
 
 from .hybrid import HybridSystem
+from .walkers import get_family
 
 _CACHE: dict[tuple, HybridSystem] = {}
 
 
 def hybrid_system(problem) -> HybridSystem:
     """The :class:`HybridSystem` of ``problem``'s walker (cached across calls)."""
-    from .walkers import get_family
-
     key = (problem.family, tuple(sorted(problem.anthropometry.items())), problem.g)
     if key not in _CACHE:
         model = get_family(problem.family).build(problem)

@@ -2,7 +2,7 @@
 
 The timing follows from the phase durations of the simulator's steps and from which part of
 each foot touches the ground in each phase. A walker family declares the latter as
-``PHASE_CONTACTS``: phase name -> (contact of leg 1, contact of leg 2), each one of
+``phase_contacts`` (registry): phase name -> (contact of leg 1, contact of leg 2), each one of
 ``"flat"`` (the whole sole), ``"heel"``, ``"toe"``, ``"point"`` (a point foot) or None (in
 the air). Leg 1 is the stance (leading) leg at the start of a step (docs/model.md); one
 physical leg (A) is leg 1 in one step and leg 2 in the next, so two steps make a gait cycle,
@@ -25,7 +25,10 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-#: the contacts a walker may declare in PHASE_CONTACTS
+from .simulate import Simulator
+from .walkers import get_family
+
+#: the contacts a walker may declare in phase_contacts
 CONTACTS = ("flat", "heel", "toe", "point")
 
 #: Perry & Burnfield (2010), normal adult free walking: stance 60 %, swing 40 %, initial and
@@ -118,13 +121,10 @@ class GaitTiming:
 
 
 def phase_contacts(family: str) -> Mapping[str, tuple[str | None, str | None]]:
-    """The walker family's ``PHASE_CONTACTS`` (see the module docstring)."""
-    from .walkers import get_family
-
-    fam = get_family(family)
-    contacts = getattr(fam, "PHASE_CONTACTS", None)
+    """The walker family's ``phase_contacts`` (see the module docstring)."""
+    contacts = get_family(family).phase_contacts
     if not contacts:
-        raise TimingError(f"walker family {family!r} declares no PHASE_CONTACTS")
+        raise TimingError(f"walker family {family!r} declares no phase_contacts")
     return contacts
 
 
@@ -135,12 +135,12 @@ def gait_timing(phases: Sequence[tuple[str, float]], step_length: float,
     ((phase, duration s) in order, as :attr:`StepRecord.phases`) and leg 2 in
     ``next_phases`` (default: the same step again, a symmetric periodic gait).
 
-    ``step_length`` (m) of the step; ``contacts``: the walker's PHASE_CONTACTS.
+    ``step_length`` (m) of the step; ``contacts``: the walker's phase_contacts.
     """
     nxt = list(phases if next_phases is None else next_phases)
     for name, _ in [*phases, *nxt]:
         if name not in contacts:
-            raise TimingError(f"phase {name!r} has no entry in PHASE_CONTACTS "
+            raise TimingError(f"phase {name!r} has no entry in phase_contacts "
                               f"({', '.join(contacts)})")
     # (duration, contact of leg A, contact of leg B) over the two steps
     segs = [(float(d), contacts[n][0], contacts[n][1]) for n, d in phases]
@@ -216,8 +216,6 @@ def simulation_timing(family: str, result) -> dict:
 def fixed_point_timing(problem, state, parameters, sim=None) -> GaitTiming | None:
     """Timing of the periodic gait through section state ``state`` (one step simulated from
     it); None when that step fails."""
-    from .simulate import Simulator
-
     sim = sim or Simulator(problem)
     run = sim.run(state, parameters, steps=1, record=False)
     if run.failure is not None or not run.steps:

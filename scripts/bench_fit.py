@@ -18,9 +18,8 @@ import sys
 import time
 from pathlib import Path
 
-from pdw_casadi.fit import FitOptions, fit_gait
+from pdw_casadi.fit import FitOptions, fit_gait, reference_gait
 from pdw_casadi.fit.driver import FitSolver
-from pdw_casadi.fit_report import reference_gait
 from pdw_casadi.fixed_point import find_fixed_point
 from pdw_casadi.gait_data import load_gait_curves
 from pdw_casadi.problem import load_problem

@@ -48,6 +48,20 @@ def table2_step(problem):
 
 
 @pytest.fixture(scope="session")
+def compass_steps():
+    """Three recorded steps of the compass gait from its problem file: (problem, hybrid
+    system, parameter vector, SimulationResult)."""
+    from pdw_casadi.simulate import Simulator
+
+    pb = load_problem("compass_gait")
+    sim = Simulator(pb)
+    p = pb.parameter_vector()
+    res = sim.run(pb.state_vector(), p, steps=3, record=True)
+    assert res.failure is None
+    return pb, sim.hs, p, res
+
+
+@pytest.fixture(scope="session")
 def numpy_walker():
     """The independent numpy/scipy implementation ``scripts/numpy_walker.py`` (a module)."""
     if str(SCRIPTS) not in sys.path:

@@ -9,20 +9,14 @@ from PIL import Image
 
 from pdw_casadi.animation import walk_frames
 from pdw_casadi.cli import simulate_main
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
 
 FPS = 25
 
 
 @pytest.fixture(scope="module")
-def compass_walk():
-    pb = load_problem("compass_gait")
-    sim = Simulator(pb)
-    p = pb.parameter_vector()
-    res = sim.run(pb.state_vector(), p, steps=3, record=True)
-    assert res.failure is None
-    return pb, sim.hs, res, walk_frames(sim.hs, res, p, fps=FPS)
+def compass_walk(compass_steps):
+    pb, hs, p, res = compass_steps
+    return pb, hs, res, walk_frames(hs, res, p, fps=FPS)
 
 
 def test_walk_frames_place_steps_end_to_end(compass_walk):

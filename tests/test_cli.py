@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.cli import COMMANDS, _write_json, main, simulate_main
+from pdw_casadi.cli import COMMANDS, main, simulate_main
+from pdw_casadi.jsonio import write_json
 
 OUTPUTS = ("trajectory.csv", "events.csv", "summary.json", "angles.png", "stick.png")
 SUMMARY_KEYS = {"phases", "step_time_s", "step_length_m", "speed_m_s", "poincare_states",
@@ -30,8 +31,10 @@ def test_simulate_writes_all_outputs(run_dir):
     for png in ("angles.png", "stick.png"):
         assert (run_dir / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     traj = pd.read_csv(run_dir / "trajectory.csv")
-    assert {"t", "phase", "q1", "dq1", "knee1_deg", "hip2_deg", "kinetic_J"} <= set(traj)
-    assert np.all(np.diff(traj["t"]) >= 0)
+    assert {"t_s", "phase", "q1_rad", "dq1_rad_s", "x_t1_m", "dx_t1_m_s", "knee1_deg",
+            "hip2_deg", "kinetic_J", "N_foot1_N", "cop_foot1_from_toe_m",
+            "clearance_toe2_m"} <= set(traj)
+    assert np.all(np.diff(traj["t_s"]) >= 0)
     events = pd.read_csv(run_dir / "events.csv")
     guards = events[events["kind"] == "guard"]["event"].tolist()
     assert guards == ["toe_off", "heel_strike", "foot_strike"]
@@ -91,9 +94,22 @@ def test_bad_arguments_exit_2(tmp_path, capsys):
 
 
 def test_write_json_handles_numpy_and_non_finite(tmp_path):
-    path = _write_json(tmp_path / "x.json", {
+    path = write_json(tmp_path / "x.json", {
         "a": np.float64(1.5), "b": np.arange(3), "c": (np.int32(2), math.nan),
         "d": np.bool_(True), "e": float("inf"), "f": tmp_path})
     data = json.loads(path.read_text())
     assert data == {"a": 1.5, "b": [0, 1, 2], "c": [2, None], "d": True, "e": None,
                     "f": str(tmp_path)}
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_command_tells_its_version(command, capsys):
+    import tomllib
+    from pathlib import Path
+
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml")
+                              .read_text())
+    with pytest.raises(SystemExit) as exc:
+        COMMANDS[command](["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.split()[-1] == pyproject["project"]["version"]

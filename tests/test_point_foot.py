@@ -97,9 +97,9 @@ def test_comparison_walker_fixed_point():
 @pytest.mark.parametrize("family", ["compass_gait", "kneed_walker"])
 def test_family_objects(family):
     fam = get_family(family)
-    assert fam.COMPLIANCE_KEYS == ()
+    assert fam.name == family and fam.compliance_keys == ()
     pb = load_problem(family)
-    assert list(pb.initial_state) == list(fam.STATE_KEYS)
+    assert list(pb.initial_state) == list(fam.state_keys)
     assert list(pb.parameter_vector()) == [pb.slope]
     model = fam.build(pb)
     assert model.parameter_names == ("slope",)

@@ -27,17 +27,18 @@ def run_dir(tmp_path_factory):
 def test_sweep_writes_table_events_and_figure(run_dir, capsys):
     table = pd.read_csv(run_dir / "sweep.csv")
     assert len(table) == 7 and table["converged"].all()
-    assert {"slope", "q_st", "q_sw", "dq_st", "dq_sw", "step_time_s", "step_length_m",
+    assert {"slope_rad", "q_st_rad", "q_sw_rad", "dq_st_rad_s", "dq_sw_rad_s", "step_time_s",
+            "step_length_m",
             "speed_m_s", "spectral_radius", "eig0_re", "eig0_im", "stable", "valid",
-            "margin:swing:min_N_foot1"} <= set(table)
-    np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7) * DEG, rtol=0, atol=1e-15)
+            "margin:swing:min_N_foot1_N", "margin:heel_strike:impulse_foot2_N_s"} <= set(table)
+    np.testing.assert_allclose(table["slope_rad"], np.linspace(3, 6, 7) * DEG, rtol=0, atol=1e-15)
     np.testing.assert_allclose(table["speed_m_s"], table["step_length_m"] / table["step_time_s"])
     ev = json.loads((run_dir / "events.json").read_text())
     kinds = [e["kind"] for e in ev["events"]]
     assert kinds[0] == "period_doubling"
     pd_slope = ev["events"][0]["value"]
     # the stable rows are exactly those below the period doubling
-    np.testing.assert_array_equal(table["stable"], table["slope"] < pd_slope)
+    np.testing.assert_array_equal(table["stable"], table["slope_rad"] < pd_slope)
     rng = ev["stable_valid_ranges"]
     assert rng[0]["from"] == pytest.approx(3 * DEG) and rng[0]["to"] == pd_slope
     assert (run_dir / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -63,8 +64,10 @@ def test_from_fit_starts_at_the_fit(tmp_path):
                        str(out)]) == 0
     table = pd.read_csv(out / "sweep.csv")
     first = table.iloc[0]
-    assert first["slope"] == slope and first["iterations"] == 0  # already a fixed point
-    np.testing.assert_allclose(first[pb.state_names].to_numpy(float), fp.state, atol=1e-12)
+    assert first["slope_rad"] == slope and first["iterations"] == 0  # already a fixed point
+    np.testing.assert_allclose(first[[f"{n}_rad" if n.startswith("q") else f"{n}_rad_s"
+                                      for n in pb.state_names]].to_numpy(float), fp.state,
+                               atol=1e-12)
 
 
 @pytest.mark.parametrize("extra, message", [
@@ -102,7 +105,7 @@ def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch, ca
     assert not (tmp_path / "sweep.csv").exists()
     table = pd.read_csv(partial)
     assert len(table) == 3 and table["converged"].all()
-    np.testing.assert_allclose(table["slope"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
+    np.testing.assert_allclose(table["slope_rad"], np.linspace(3, 6, 7)[:3] * DEG, atol=1e-15)
 
 
 def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
@@ -115,7 +118,7 @@ def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
     sw = tmp_path / "sw"
     assert sweep_main(["--problem", "humanlike_6link", "--from", "0.14839", "--to", "0.1484",
                        "--num", "2", "--gait", "female_fast.csv", "--out", str(sw)]) == 0
-    table = pd.read_csv(sw / "sweep.csv").sort_values("slope")
+    table = pd.read_csv(sw / "sweep.csv").sort_values("slope_rad")
     assert len(table) == 2 and table["converged"].all()
     pb = load_problem("humanlike_6link")
     fp = find_fixed_point(pb)
@@ -123,7 +126,7 @@ def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
     one = sim.run(fp.state, fp.parameters, steps=1, record=True)
     scores = fit_scores(gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase),
                         load_gait_curves("female_fast.csv"))
-    at_paper = table[table["slope"] == 0.1484].iloc[0]
+    at_paper = table[table["slope_rad"] == 0.1484].iloc[0]
     for key in ("r2_knee", "r2_hip", "r2_thigh"):
         assert at_paper[key] == pytest.approx(scores[key], abs=1e-8)
     # a neighbouring slope walks a slightly different gait: close but not the same R^2

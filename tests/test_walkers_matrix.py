@@ -54,7 +54,9 @@ def test_simulate_with_animation(name, tmp_path, capsys):
     for f in ("angles.png", "stick.png"):
         assert (out / f).read_bytes()[:8] == PNG
     assert gif.read_bytes()[:6] in (b"GIF89a", b"GIF87a")
-    traj = pd.read_csv(out / "trajectory.csv")
+    # the file names the units (t_s, q1_rad, ...); the plot helpers take the in-memory names
+    traj = pd.read_csv(out / "trajectory.csv").rename(columns={"t_s": "t"})
+    assert not [c for c in traj if c.startswith("q") and not c.endswith(("_rad", "_deg"))]
     pb = load_problem(name)
     faces = walker_faces(pb)
     # the plots' steps: one run of each of the walker's phases per step, in model order
@@ -63,7 +65,7 @@ def test_simulate_with_animation(name, tmp_path, capsys):
         (k, ph) for k in range(3) for ph in faces.phases]
     events = pd.read_csv(out / "events.csv")
     ends = events[(events["kind"] == "guard")
-                  & (events["event"] == faces.section_transition.name)]["t"].to_numpy()
+                  & (events["event"] == faces.section_transition.name)]["t_s"].to_numpy()
     assert len(ends) == 3
     for (k, _ph, _t0, t1), t_end in zip([s for s in spans if s[1] == faces.phases[-1]], ends,
                                         strict=True):

@@ -12,9 +12,9 @@
 from .core import RefitCorrector, check_targets, fit_gait
 from .objective import CurveError
 from .options import FitOptions
-from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score
+from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score, reference_gait
 from .stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
            "RefitCorrector", "Solve", "StabilityRow", "check_targets", "evaluate_gait",
-           "fit_gait", "mean_score", "smooth_radius"]
+           "fit_gait", "mean_score", "reference_gait", "smooth_radius"]

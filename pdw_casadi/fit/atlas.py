@@ -1,18 +1,19 @@
 """Build a walker's gait atlas: stable, valid interior fixed points to start fits from.
 
-No human data goes in.
-
-- **Seeds**: the stable gait (simulator rho <= ``radius``) whose knee and hip curves are
+- **Own seeds**: the stable gait (simulator rho <= ``radius``) whose knee and hip curves are
   closest (R^2) to those of the problem's own gait, or to a deformation of them (knee
   amplitude, hip offset: :data:`VARIANTS`), found by the fit itself with those curves as
   the target; a smaller ``radius`` gives a seed further inside the stable region.
+- **Cohort seeds** (``--curves``): the fitted gait of each given human curve file (the shipped
+  atlas: the bundled cohort mean ``female_fast.csv``), at each ``radius``. A fit of other
+  curves of a similar gait then starts inside the stable region, near its answer.
 (Natural-parameter continuation from these seeds, one compliance value at a time, finds
 no further points for the 6-link walker: Newton does not converge even 2 % away, where the
 NLP does; so the entries come from the NLP.)
 
 Entries are stored with their curves, so a fit can rank them on the user's curves.
 
-    python -m pdw_casadi.fit.atlas --problem humanlike_6link [--variants all]
+    python -m pdw_casadi.fit.atlas --problem humanlike_6link --curves female_fast.csv
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import pandas as pd
 
 from ..curves import cycle_curves
 from ..fixed_point import find_fixed_point
-from ..gait_data import GaitCurves
+from ..gait_data import GaitCurves, load_gait_curves
 from ..problem import load_problem
 from ..simulate import Simulator
 from .core import fit_gait
@@ -60,13 +61,15 @@ def _target(c: pd.DataFrame, knee: float, hip: float, name: str) -> GaitCurves:
 
 
 def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
-                log=print) -> list[AtlasEntry]:
-    """The seeds: per curve variant (the walker's own curves, deformed) and stability level
-    in ``radii``, the stable gait closest to them (see the module docstring)."""
+                curves: tuple[GaitCurves, ...] = (), log=print) -> list[AtlasEntry]:
+    """The seeds: per target (the walker's own curves and their ``variants``, then each of
+    ``curves``) and stability level in ``radii``, the stable gait closest to the target (see
+    the module docstring)."""
     c = own_curves(problem)
+    targets = [_target(c, knee, hip, name) for name, knee, hip in variants] + list(curves)
     entries = []
-    for (name, knee, hip), r in ((v, r) for v in variants for r in radii):
-        target = _target(c, knee, hip, name)
+    for target, r in ((t, r) for t in targets for r in radii):
+        name = target.name
         res = fit_gait(problem, target, FitOptions(max_radius=r, atlas="", verbose=False),
                        log=lambda m: None)
         b = res.best
@@ -90,11 +93,15 @@ def main(argv=None) -> int:
     ap.add_argument("--variants", choices=("own", "all"), default="own",
                     help="fit the walker's own curves only (the shipped atlas) or also "
                          "their deformations (VARIANTS)")
+    ap.add_argument("--curves", nargs="*", default=["female_fast.csv"], metavar="FILE",
+                    help="human curve files whose fitted gaits become entries (default: the "
+                         "bundled female_fast.csv; none with an empty list)")
     ap.add_argument("--out", type=Path, help="atlas file (default: the bundled one)")
     args = ap.parse_args(argv)
     problem = load_problem(args.problem)
     entries = build_atlas(problem, tuple(args.radius),
-                          VARIANTS if args.variants == "all" else VARIANTS[:1])
+                          VARIANTS if args.variants == "all" else VARIANTS[:1],
+                          tuple(load_gait_curves(f) for f in args.curves))
     if not entries:
         print("error: no entry", file=sys.stderr)
         return 1

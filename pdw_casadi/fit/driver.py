@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 
 from ..callback import NumericFunction
+from ..timing import human_timing, phase_contacts
 from .objective import curve_errors
 from .options import FitOptions
 from .stability import StabilityRow
@@ -124,9 +125,7 @@ class _Progress(ca.Callback):
 
 def stance_pct_expr(nlp) -> ca.MX:
     """The stance (= toe off) in % of the gait cycle of the NLP's step, from its segment
-    durations and the walker's PHASE_CONTACTS (symmetric gait: a cycle is two steps)."""
-    from ..timing import phase_contacts
-
+    durations and the walker's phase_contacts (symmetric gait: a cycle is two steps)."""
     contacts = phase_contacts(nlp.problem.family)
     down = 0
     for k, s in enumerate(nlp.specs):
@@ -155,8 +154,6 @@ class FitSolver:
             obj = obj + ca.sumsqr(E) / ss_tot
         self.timing = None
         if opts.timing_weight > 0:
-            from ..timing import human_timing
-
             stance = stance_pct_expr(nlp)
             target = human_timing(human)[0]["toe_off_pct"]
             term = opts.timing_weight * ((stance - target) / 10.0) ** 2

@@ -15,12 +15,11 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..curves import cycle_time
+from ..errors import CurveError
+
 #: fit target -> (model output stem, human column)
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
-
-
-class CurveError(ValueError):
-    """The curves cannot be fitted: the walker or the curve file lacks a target."""
 
 
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
@@ -48,19 +47,14 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     T = nlp.step_time
     hs_phase = nlp.model.heel_strike_phase
     pct = {1: [], 2: []}
-    if hs_phase is None:
-        # the step begins at leg 1's heel strike: leg 1 over the step, then leg 2
-        for k in range(len(nlp.specs)):
-            ts = nlp.sample_t[k]
-            pct[1].append(100 * ts / (2 * T))
-            pct[2].append(100 * (T + ts) / (2 * T))
-    else:
+    k_hs, t_hs = len(nlp.specs), None  # no heel-strike phase: the step begins at leg 1's
+    if hs_phase is not None:
         k_hs = next(k for k, s in enumerate(nlp.specs) if s.phase == hs_phase)
         t_hs = nlp.t_start[k_hs]
-        for k in range(len(nlp.specs)):
-            ts = nlp.sample_t[k]
-            pct[1].append(100 * (T - t_hs + ts) / (2 * T))
-            pct[2].append(100 * ((ts - t_hs) if k >= k_hs else (2 * T - t_hs + ts)) / (2 * T))
+    for k in range(len(nlp.specs)):
+        ts = nlp.sample_t[k]
+        for leg in (1, 2):
+            pct[leg].append(100 * cycle_time(ts, leg, T, t_hs, k >= k_hs) / (2 * T))
     pct = {leg: ca.horzcat(*rows) for leg, rows in pct.items()}
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}

@@ -8,9 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..curves import cycle_curves, fit_scores
+from ..curves import cycle_curves, fit_scores, gait_cycle
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..simulate import Simulator
+from ..timing import TimingError, step_timing
 from .options import FitOptions
 
 
@@ -106,3 +107,30 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
         return None
     return Candidate(-1, fp.state, fp.parameters, fp, fit_scores(curves, human), curves, dev,
                      float("nan"), resim_tol)
+
+
+def reference_gait(problem, human) -> dict:
+    """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
+    fp = find_fixed_point(problem)
+    out = {"problem": problem.name, "converged": fp.converged,
+           "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
+           "failure": fp.failure, "curves": None}
+    if not fp.converged:
+        return out
+    sim = Simulator(problem)
+    one = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    if one.failure is not None:
+        out["failure"] = one.failure.reason
+        return out
+    curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
+    out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
+               step_length_m=fp.step_length_m, timing=_timing(problem, one))
+    return out
+
+
+def _timing(problem, one):
+    """The gait timing of a one-step run from a fixed point (None: the walker has none)."""
+    try:
+        return step_timing(problem.family, one.steps[0])
+    except TimingError:
+        return None

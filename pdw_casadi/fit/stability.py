@@ -32,7 +32,8 @@ import casadi as ca
 import numpy as np
 
 from ..compile import LazyGroup, interpreted
-from ..hybrid import HybridSystem
+from ..hybrid import HybridSystem, Impact
+from ..rk4 import rk4_sensitivities
 
 RADIUS_NORM = 32  # q of the smooth spectral-radius bound
 
@@ -115,17 +116,12 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
         H, P, M, C = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm), ca.MX.sym("c")
         # dh/dT_k = c: the last column (b = dX/dT_k) also moves the stage points
         E = ca.horzcat(ca.MX(1, ns), C)
-        k1, A1 = rj(X, P, M)
-        d1 = ca.mtimes(A1, Zm)
-        k2, A2 = rj(X + H / 2 * k1, P, M)
-        d2 = ca.mtimes(A2, Zm + H / 2 * d1 + ca.mtimes(k1 / 2, E))
-        k3, A3 = rj(X + H / 2 * k2, P, M)
-        d3 = ca.mtimes(A3, Zm + H / 2 * d2 + ca.mtimes(k2 / 2, E))
-        k4, A4 = rj(X + H * k3, P, M)
-        d4 = ca.mtimes(A4, Zm + H * d3 + ca.mtimes(k3, E))
-        ksum = k1 + 2 * k2 + 2 * k3 + k4
-        Xn = X + H / 6 * ksum
-        Zn = Zm + H / 6 * (d1 + 2 * d2 + 2 * d3 + d4) + ca.mtimes(ksum / 6, E)
+
+        def stage(xx, zz, rj=rj, P=P, M=M):
+            k, Ak = rj(xx, P, M)
+            return k, ca.mtimes(Ak, zz)
+
+        Xn, Zn = rk4_sensitivities(stage, X, Zm, H, E)
         one = ca.Function(f"zstep_{phase}", [A, H, P, M, C], [ca.vertcat(Xn, ca.vec(Zn))])
         acc = one.mapaccum(f"zacc_{phase}", n_sub)
         out = acc(A, H, P, M, C)[:, -1]
@@ -144,7 +140,7 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
     R = ca.SX.sym("R", nx, ns)
     vm: dict[str, ca.Function] = {}
     for tr in hs.model.transitions:
-        xp = hs.impact[tr.name].fun(x, p)[0]
+        xp = Impact(*hs.impact[tr.name].fun(x, p)).x_plus
         if tr.ends_step:
             out = model.full_to_section(xp)
             vm.update(_named(ca.Function(f"zlast_{tr.name}", [x, p, ca.vec(R)],

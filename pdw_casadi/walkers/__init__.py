@@ -1,23 +1,16 @@
 """Walker families: one small module each, describing a walker symbolically.
 
-A family module defines the problem-file keys it needs (``ANTHROPOMETRY_KEYS``,
-``COMPLIANCE_KEYS``, ``STATE_KEYS``, ``POSITIVE_KEYS``, ``NONNEGATIVE_COMPLIANCE``), a
-``check_anthropometry(values, where)`` hook and ``build(problem) -> WalkerModel``. Everything
-numerical (simulation, Poincare map, fixed points, fits, sweeps) is generic over that model.
+A family module decorates its ``build(problem) -> WalkerModel`` with
+:func:`~pdw_casadi.walkers.registry.register`, naming the problem-file keys it needs
+(anthropometry, compliance, section state), an anthropometry check and the names its plots
+use (:class:`~pdw_casadi.walkers.registry.Family`). Everything numerical (simulation,
+Poincare map, fixed points, fits, sweeps) is generic over the model it builds. A new family:
+a module here with a registered ``build``, imported below.
 """
 
 from __future__ import annotations
 
-import importlib
-from types import ModuleType
+from . import humanlike_6link, humanlike_6link_ankle, point_foot  # noqa: F401 (registers)
+from .registry import FAMILIES, Family, get_family, register
 
-FAMILIES = ("humanlike_6link", "humanlike_6link_ankle", "compass_gait", "kneed_walker")
-
-
-def get_family(name: str) -> ModuleType:
-    """The module of a walker family (``"humanlike_6link"``, ``"compass_gait"``, ...)."""
-    if name not in FAMILIES:
-        raise KeyError(f"unknown walker family {name!r}; known: {', '.join(FAMILIES)}")
-    module = "point_foot" if name in ("compass_gait", "kneed_walker") else name
-    mod = importlib.import_module(f"{__name__}.{module}")
-    return getattr(mod, "FAMILY_" + name.upper(), mod)
+__all__ = ["FAMILIES", "Family", "get_family", "register"]

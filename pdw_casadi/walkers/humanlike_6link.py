@@ -14,9 +14,12 @@ import math
 
 import casadi as ca
 
+from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
+from ..margins import IMPULSE, IMPULSE_COP
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
 from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
+from .registry import register
 
 ANTHROPOMETRY_KEYS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh",
                       "m_h", "m_t", "m_s", "m_f", "J_t", "J_s", "J_f")
@@ -51,8 +54,6 @@ PAPER_REPORTED_R2 = {"r2_knee": 0.891, "r2_hip": 0.899}
 
 def check_anthropometry(a, where) -> None:
     """Foot geometry must close: heel-to-ankle + ankle-to-toe = foot length."""
-    from ..problem import ProblemError
-
     if abs(a["l_ft"] + a["l_fh"] - a["l_f"]) > 1e-9:
         raise ProblemError(f"{where}: 'anthropometry.l_ft' + 'anthropometry.l_fh' must equal "
                            f"'anthropometry.l_f' ({a['l_ft']} + {a['l_fh']} != {a['l_f']})")
@@ -66,6 +67,16 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
+@register(
+    "humanlike_6link",
+    description="The humanlike 6-link walker: flat feet, compliant ankles, engageable knees.",
+    anthropometry_keys=ANTHROPOMETRY_KEYS, compliance_keys=COMPLIANCE_KEYS,
+    state_keys=STATE_KEYS, positive_keys=POSITIVE_KEYS,
+    nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
+    phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
+    leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
+    comparison_problem=COMPARISON_PROBLEM, paper_reported_r2=PAPER_REPORTED_R2,
+    phase_contacts=PHASE_CONTACTS)
 def build(problem, ext=None) -> WalkerModel:
     """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in).
 
@@ -249,6 +260,8 @@ def build(problem, ext=None) -> WalkerModel:
         "impulse_cop2_from_toe": -tau_imp / N_imp,
         "impulse_cop2_from_heel": lf + tau_imp / N_imp,
     }
+    foot.margins = {"impulse_toe1": IMPULSE, "impulse_foot2": IMPULSE,
+                    "impulse_cop2_from_toe": IMPULSE_COP, "impulse_cop2_from_heel": IMPULSE_COP}
     swap = list(SWAP)
     q_new = ca.vertcat(*[q[i] for i in swap], 0, 0)
     qd_new = ca.vertcat(*[qd[i] for i in swap], 0, 0)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from ..hybrid import SWITCH, Event
 from ..mechanics.torques import JointTorque, engageable_spring_damper
 from . import humanlike_6link as base
+from .registry import register
 
 ANTHROPOMETRY_KEYS = base.ANTHROPOMETRY_KEYS
 EXTRA_COMPLIANCE = ("c_ankle_load", "ankle_rest", "k_clutch", "phi_clutch")
@@ -99,6 +100,16 @@ class AnkleExtension:
 EXTENSION = AnkleExtension()
 
 
+@register(
+    "humanlike_6link_ankle",
+    description="The humanlike 6-link walker with passive ankle extensions (loading "
+                "damper, spring rest angle, clutch spring).",
+    anthropometry_keys=ANTHROPOMETRY_KEYS, compliance_keys=COMPLIANCE_KEYS,
+    state_keys=STATE_KEYS, positive_keys=POSITIVE_KEYS,
+    nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
+    phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
+    leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
+    comparison_problem=COMPARISON_PROBLEM, phase_contacts=PHASE_CONTACTS)
 def build(problem):
     """The symbolic model (see :func:`pdw_casadi.walkers.humanlike_6link.build`)."""
     return base.build(problem, EXTENSION)

@@ -39,12 +39,13 @@ monodromy matrix has one (two) extra eigenvalue(s) ~ 0.
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import casadi as ca
 
+from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, Event, WalkerModel, make_phase, make_transition
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
+from .registry import register
 
 DEG = 180 / math.pi
 #: the heel-strike guard L sin(S/2) counts only once it has exceeded ARM * L in the phase
@@ -57,16 +58,22 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
-def _problem_error():
-    from ..problem import ProblemError
-
-    return ProblemError
-
-
 def _ground(gamma):
     n = ca.vertcat(ca.sin(gamma), ca.cos(gamma))  # ground normal (up)
     t_slope = ca.vertcat(ca.cos(gamma), -ca.sin(gamma))  # downhill along the ground
     return n, t_slope
+
+
+def _symbols(nq: int):
+    """Coordinates q, rates qd, parameters p = [slope], no modes, the slope and the ground's
+    normal and downhill tangent of a point-foot walker with ``nq`` coordinates."""
+    q = ca.SX.sym("q", nq)
+    qd = ca.SX.sym("qd", nq)
+    p = ca.SX.sym("p", 1)
+    gamma = p[0]
+    m = ca.SX.sym("m", 0)
+    n, t_slope = _ground(gamma)
+    return q, qd, p, m, gamma, n, t_slope
 
 
 def _strike_guard(q_st, q_sw, gamma, leg):
@@ -95,17 +102,21 @@ def check_compass_gait(a, where) -> None:
     """Nothing beyond positivity (a, b, m, m_h > 0)."""
 
 
+@register(
+    "compass_gait",
+    description="Compass gait (Goswami et al.): rigid point-foot legs, hip mass.",
+    anthropometry_keys=CG_ANTHROPOMETRY_KEYS, compliance_keys=(), state_keys=CG_STATE_KEYS,
+    positive_keys=CG_ANTHROPOMETRY_KEYS, check_anthropometry=check_compass_gait,
+    phase_descriptions={"swing": "stance foot pinned, swing leg free"},
+    limit_cycle_legs=(("q_st",), ("q_sw",)), leg_segments=("leg",),
+    curve_joints=("hip",),  # rigid legs: no knee
+    phase_contacts={"swing": ("point", None)})
 def build_compass_gait(problem) -> WalkerModel:
     """The compass-gait model with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)
     leg = a["a"] + a["b"]
-    q = ca.SX.sym("q", 4)
-    qd = ca.SX.sym("qd", 4)
+    q, qd, p, m, gamma, n, t_slope = _symbols(4)
     q_st, q_sw, xf, yf = (q[i] for i in range(4))
-    p = ca.SX.sym("p", 1)
-    gamma = p[0]
-    m = ca.SX.sym("m", 0)
-    n, t_slope = _ground(gamma)
 
     foot1 = ca.vertcat(xf, yf)
     hip = foot1 - leg * direction(q_st)
@@ -171,21 +182,28 @@ def check_kneed_walker(a, where) -> None:
     """Inertias about the point masses must be >= 0 (the other values are positive)."""
     for k in ("J_s", "J_t"):
         if a[k] < 0:
-            raise _problem_error()(f"{where}: 'anthropometry.{k}' must be >= 0, got {a[k]}")
+            raise ProblemError(f"{where}: 'anthropometry.{k}' must be >= 0, got {a[k]}")
 
 
+@register(
+    "kneed_walker",
+    description="Kneed walker (McGeer; Hsu Chen): point feet, knees that lock at full "
+                "extension.",
+    anthropometry_keys=KW_ANTHROPOMETRY_KEYS, compliance_keys=(), state_keys=KW_STATE_KEYS,
+    positive_keys=tuple(k for k in KW_ANTHROPOMETRY_KEYS if k not in ("J_s", "J_t")),
+    check_anthropometry=check_kneed_walker,
+    phase_descriptions={"unlocked": "stance knee locked, swing knee free",
+                        "locked": "both knees locked"},
+    limit_cycle_legs=(("q1", "q2"), ("q4", "q3")), leg_segments=("shank", "thigh"),
+    curve_joints=("knee", "hip"),
+    phase_contacts={"unlocked": ("point", None), "locked": ("point", None)})
 def build_kneed_walker(problem) -> WalkerModel:
     """The kneed-walker model with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)
     l_s, l_t = a["a1"] + a["b1"], a["a2"] + a["b2"]
     leg = l_s + l_t
-    q = ca.SX.sym("q", 6)
-    qd = ca.SX.sym("qd", 6)
+    q, qd, p, m, gamma, n, t_slope = _symbols(6)
     q1, q2, q3, q4, xf, yf = (q[i] for i in range(6))
-    p = ca.SX.sym("p", 1)
-    gamma = p[0]
-    m = ca.SX.sym("m", 0)
-    n, t_slope = _ground(gamma)
 
     foot1 = ca.vertcat(xf, yf)
     knee1 = foot1 - l_s * direction(q1)
@@ -265,48 +283,3 @@ def build_kneed_walker(problem) -> WalkerModel:
         links=[("foot1", "knee1"), ("knee1", "hip"), ("hip", "knee2"), ("knee2", "foot2")],
         ground_normal=n, q_names=KW_Q_NAMES,
     )
-
-
-FAMILY_COMPASS_GAIT = SimpleNamespace(
-    __doc__="Compass gait (Goswami et al.): rigid point-foot legs, hip mass.",
-    NAME="compass_gait",
-    ANTHROPOMETRY_KEYS=CG_ANTHROPOMETRY_KEYS,
-    COMPLIANCE_KEYS=(),
-    STATE_KEYS=CG_STATE_KEYS,
-    POSITIVE_KEYS=CG_ANTHROPOMETRY_KEYS,
-    NONNEGATIVE_COMPLIANCE=(),
-    MODE_KEYS=(),
-    Q_NAMES=CG_Q_NAMES,
-    PHASE_DESCRIPTIONS={"swing": "stance foot pinned, swing leg free"},
-    LIMIT_CYCLE_LEGS=(("q_st",), ("q_sw",)),
-    PHASE_CONTACTS={"swing": ("point", None)},
-    LEG_SEGMENTS=("leg",),
-    CURVE_JOINTS=("hip",),  # rigid legs: no knee
-    INSTANT_LABELS={},
-    COMPARISON_PROBLEM=None,
-    check_anthropometry=check_compass_gait,
-    build=build_compass_gait,
-)
-
-FAMILY_KNEED_WALKER = SimpleNamespace(
-    __doc__="Kneed walker (McGeer; Hsu Chen): point feet, knees that lock at full extension.",
-    NAME="kneed_walker",
-    ANTHROPOMETRY_KEYS=KW_ANTHROPOMETRY_KEYS,
-    COMPLIANCE_KEYS=(),
-    STATE_KEYS=KW_STATE_KEYS,
-    POSITIVE_KEYS=tuple(k for k in KW_ANTHROPOMETRY_KEYS if k not in ("J_s", "J_t")),
-    NONNEGATIVE_COMPLIANCE=(),
-    MODE_KEYS=(),
-    Q_NAMES=KW_Q_NAMES,
-    PHASE_DESCRIPTIONS={"unlocked": "stance knee locked, swing knee free",
-                        "locked": "both knees locked"},
-    LIMIT_CYCLE_LEGS=(("q1", "q2"), ("q4", "q3")),
-    PHASE_CONTACTS={"unlocked": ("point", None), "locked": ("point", None)},
-    LEG_SEGMENTS=("shank", "thigh"),
-    CURVE_JOINTS=("knee", "hip"),
-    INSTANT_LABELS={},
-    COMPARISON_PROBLEM=None,
-    SWAP=KW_SWAP,
-    check_anthropometry=check_kneed_walker,
-    build=build_kneed_walker,
-)

@@ -1,0 +1,164 @@
+"""The package's import graph: no cycle, none hidden behind a function-level import, and no
+module that switches the matplotlib backend when imported."""
+
+from __future__ import annotations
+
+import ast
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pdw_casadi
+
+PACKAGE = Path(pdw_casadi.__file__).resolve().parent
+
+
+def _module_name(path: Path, root: Path) -> str:
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def _resolve(node: ast.ImportFrom, module: str, is_pkg: bool) -> str:
+    if node.level == 0:
+        return node.module or ""
+    base = module.split(".")
+    if not is_pkg:
+        base.pop()
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    t = node.test
+    return (isinstance(t, ast.Name) and t.id == "TYPE_CHECKING") or (
+        isinstance(t, ast.Attribute) and t.attr == "TYPE_CHECKING")
+
+
+def _imports(tree: ast.AST):
+    """(import node, inside a function?) for every import statement that runs."""
+    stack = [(tree, False)]
+    while stack:
+        node, in_function = stack.pop()
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child):
+                continue  # annotations only, never executed
+            if isinstance(child, ast.Import | ast.ImportFrom):
+                yield child, in_function
+            fn = isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+            stack.append((child, in_function or fn))
+
+
+def import_graph(root: Path) -> tuple[dict[str, set[str]], dict[str, set[str]]]:
+    """Edges between the modules of the package at ``root``: (top-level, function-level).
+
+    An edge a -> b means module a imports module b (``from .b import x`` and ``from . import
+    b`` alike). The implicit import of a parent package is left out: a package's
+    ``__init__`` re-exporting its submodules is not a cycle.
+    """
+    files = sorted(root.rglob("*.py"))
+    modules = {_module_name(f, root): f for f in files}
+    top: dict[str, set[str]] = {m: set() for m in modules}
+    nested: dict[str, set[str]] = {m: set() for m in modules}
+
+    def targets(node, module, is_pkg):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        else:
+            base = _resolve(node, module, is_pkg)
+            names = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base
+                     for a in node.names]
+        out = set()
+        for name in names:
+            while name and name not in modules:  # ``import a.b.c`` imports a.b.c's module
+                name = name.rpartition(".")[0]
+            if name and name != module:
+                out.add(name)
+        return out
+
+    for module, path in modules.items():
+        is_pkg = path.name == "__init__.py"
+        for node, in_function in _imports(ast.parse(path.read_text())):
+            (nested if in_function else top)[module] |= targets(node, module, is_pkg)
+    return top, nested
+
+
+def find_cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    """One cycle of the directed graph (as a list of nodes, first = last), or None."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def dfs(u):
+        state[u] = 1
+        stack.append(u)
+        for v in sorted(edges.get(u, ())):
+            if state.get(v) == 1:
+                return stack[stack.index(v):] + [v]
+            if v not in state and (c := dfs(v)):
+                return c
+        stack.pop()
+        state[u] = 2
+        return None
+
+    for u in sorted(edges):
+        if u not in state and (c := dfs(u)):
+            return c
+    return None
+
+
+def _both(top, nested):
+    return {m: top[m] | nested[m] for m in top}
+
+
+def test_no_import_cycle_at_module_level():
+    top, _ = import_graph(PACKAGE)
+    assert len(top) > 30 and sum(map(len, top.values())) > 50  # the graph was read
+    assert find_cycle(top) is None, " -> ".join(find_cycle(top))
+
+
+def test_no_function_level_import_hides_a_cycle():
+    # a function-level import is fine for start-up time (the CLI defers casadi), but if
+    # moving it to the top would close a cycle it only hides one
+    top, nested = import_graph(PACKAGE)
+    cycle = find_cycle(_both(top, nested))
+    assert cycle is None, "hidden import cycle: " + " -> ".join(cycle)
+
+
+def test_the_graph_check_finds_cycles_it_should(tmp_path):
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from .a import f\n")
+    (pkg / "a.py").write_text("from .sub import b\n\ndef f():\n    return b\n")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "sub" / "b.py").write_text(textwrap.dedent("""
+        from typing import TYPE_CHECKING
+        if TYPE_CHECKING:
+            from ..a import f
+        def g():
+            from .. import a
+            return a
+    """))
+    top, nested = import_graph(pkg)
+    assert top["pkg.a"] == {"pkg.sub.b"} and nested["pkg.sub.b"] == {"pkg.a"}
+    assert find_cycle(top) is None  # the TYPE_CHECKING import is not an edge
+    assert find_cycle(_both(top, nested)) == ["pkg.a", "pkg.sub.b", "pkg.a"]
+
+
+def test_importing_every_module_leaves_the_matplotlib_backend_alone():
+    # a fresh interpreter: the backend a user (or Jupyter's inline kernel) chose must survive
+    # importing any module of the package; only the command-line entry points select Agg
+    modules = sorted(import_graph(PACKAGE)[0])
+    code = textwrap.dedent(f"""
+        import importlib, matplotlib
+        matplotlib.use("svg")
+        for m in {modules!r}:
+            importlib.import_module(m)
+        print(matplotlib.get_backend())
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True,
+                         env={k: v for k, v in os.environ.items() if k != "MPLBACKEND"})
+    assert out.stdout.strip().lower() == "svg", out.stdout + out.stderr
