@@ -130,6 +130,15 @@ def _tol(flag: str = "--tol") -> Callable[[str], float]:
     return parse
 
 
+def _one_leg_set(problem: Problem) -> None:
+    """Refuse (before any output) a problem whose legs differ, for commands that work on the
+    one-step map only."""
+    if problem.asymmetric:
+        raise UsageError(f"{problem.name}: its legs differ; this command works on walkers "
+                         f"with one set of values for both legs (pdw-simulate and "
+                         f"pdw-fixed-point solve asymmetric walkers on the stride map)")
+
+
 def load_cli_problem(args: argparse.Namespace) -> Problem:
     """The problem named by ``--problem`` with ``--compliance`` and ``--state`` applied.
 
@@ -280,15 +289,20 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         from .simulate import Simulator
         from .units import summary_units, with_units
 
-        sim = Simulator(problem)
+        if problem.asymmetric:  # legs differ: parameters alternate with the stance leg
+            from .stride import stride_simulator
+
+            sim, p_steps = stride_simulator(problem)
+        else:
+            sim, p_steps = Simulator(problem), None
         faces = walker_faces(problem, sim.hs)
-        p = problem.parameter_vector()
+        p = p_steps[0] if p_steps else problem.parameter_vector()
         out = outputs.create()
         with tqdm(total=args.steps, unit="step", desc="pdw-simulate", file=sys.stderr,
                   disable=args.steps < 10) as bar:
             result = sim.run(problem.state_vector(), p, steps=args.steps, record=True,
                              progress=lambda k: bar.update(k - bar.n),
-                             max_samples=MAX_SAMPLES)
+                             max_samples=MAX_SAMPLES, p_steps=p_steps)
         traj = result.trajectory
         if traj is None:
             import pandas as pd
@@ -339,6 +353,9 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--tol", type=_tol(), default=1e-10,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
+    parser.add_argument("--stride", action="store_true",
+                        help="solve on the stride map (two steps, one per physical leg); "
+                             "always so when the problem's legs differ")
     args, outputs = _parse(parser, argv)
 
     def body() -> int:
@@ -351,11 +368,18 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         from .system import hybrid_system
         from .units import summary_units
 
-        faces = walker_faces(problem)
+        stride = args.stride or problem.asymmetric
+        faces = None if stride else walker_faces(problem)
         out = outputs.create()
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
-        res = find_fixed_point(problem, tol=args.tol, verbose=True)
+        if stride:  # the two-step map: parameters follow the physical legs
+            from .stride import StrideMap, find_stride_fixed_point
+
+            smap = StrideMap(problem)
+            res = find_stride_fixed_point(problem, tol=args.tol, smap=smap)
+        else:
+            res = find_fixed_point(problem, tol=args.tol, verbose=True)
         summary = res.to_dict()
         wall = summary.pop("wall_time_s", None)  # timings are not part of the result
         summary["distance_from_initial"] = float(
@@ -365,9 +389,13 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         if res.converged:
             summary["timing"] = _timing_or_none(lambda: fixed_point_timing(
                 problem, res.state, res.parameters))
-        summary["units"] = summary_units(summary, hybrid_system(problem))
+        if stride:
+            summary["map"] = "stride (left-stance step, then right-stance step)"
+            if res.converged:
+                summary.update(_stride_outputs(smap, res, out, outputs))
+        summary["units"] = summary_units(summary, smap.hs if stride else hybrid_system(problem))
         write_json(outputs.wrote(out / "summary.json"), summary)
-        if res.converged:
+        if res.converged and not stride:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)
             plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
@@ -390,6 +418,29 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         return 0
 
     return run(outputs, body)
+
+
+def _stride_outputs(smap, res, out: Path, outputs) -> dict:
+    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``) and the
+    per-leg knee/hip curves in ``leg_curves.csv`` and ``leg_curves.png``."""
+    import pandas as pd
+
+    from .plots import plot_leg_curves
+    from .stride import stride_report
+
+    rep = stride_report(smap, res.state, res.parameters)
+    curves = rep.pop("curves")
+    frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
+    frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)
+    plot_leg_curves(curves, outputs.wrote(out / "leg_curves.png"),
+                    title=f"{smap.problem.name}: knee and hip per leg")
+    rep["step_spectral_radius_equivalent"] = float(np.sqrt(res.spectral_radius))
+    print(f"step length L/R {rep['legs']['left']['step_length_m']:.4f} / "
+          f"{rep['legs']['right']['step_length_m']:.4f} m "
+          f"(asymmetry {rep['step_length_asymmetry_pct']:+.3f} %), step time L/R "
+          f"{rep['legs']['left']['step_time_s']:.4f} / {rep['legs']['right']['step_time_s']:.4f}"
+          f" s (asymmetry {rep['step_time_asymmetry_pct']:+.3f} %)")
+    return {"stride": rep}
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:
@@ -447,6 +498,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     def body() -> int:
         human = _gait_file(args.gait)
         problem = load_cli_problem(args)
+        _one_leg_set(problem)
         if args.hip_target == "thigh" and human.thigh_deg is None:
             raise UsageError(f"--hip-target thigh needs a thigh column in the gait file "
                              f"{human.source} (it has none); use --hip-target hip")
@@ -595,6 +647,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             if args.param != "slope":
                 raise UsageError("--refit sweeps the slope (the compliance is refitted)")
         problem = load_cli_problem(args)
+        _one_leg_set(problem)
         if args.from_fit is not None:
             problem = load_fit_start(problem, args.from_fit)
         parameter_index(problem, args.param)  # an unknown name fails before any work
@@ -696,7 +749,14 @@ COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "fixed-point": fixed_point_main,
     "fit": fit_main,
     "sweep": sweep_main,
+    "scale": lambda argv=None: _scale_main(argv),
 }
+
+
+def _scale_main(argv):
+    from .scaling import scale_main
+
+    return scale_main(argv)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -428,3 +428,23 @@ def plot_sweep(table: pd.DataFrame, events, parameter: str, path=None,
     axes[2].set_xlabel(parameter)
     fig.suptitle(title or f"Sweep over {parameter}", fontsize=10)
     return _save(fig, path, 120)
+
+
+def plot_leg_curves(curves: dict, path=None, title: str | None = None, *,
+                    ax=None) -> Figure:
+    """Knee (left panel) and hip (right panel) angle (deg) over each physical leg's gait
+    cycle (%), one line per leg: ``curves`` = {"left": frame, "right": frame} from
+    :func:`pdw_casadi.stride.stride_report`. ``ax``: two Axes. Returns the figure (also
+    written to ``path``)."""
+    fig, axes = _axes(ax, 1, 2, (10, 4.2))
+    for a, name in zip(axes, ("knee", "hip"), strict=True):
+        for side, frame in curves.items():
+            a.plot(frame["cycle_pct"], frame[f"{name}_deg"], lw=1.5,
+                   ls="-" if side == "left" else "--", label=f"{side} leg")
+        a.set_xlabel("gait cycle of the leg (%)")
+        a.set_ylabel(f"{name} angle (deg)")
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return _save(fig, path, 120)

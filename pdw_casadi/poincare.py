@@ -41,6 +41,10 @@ class MapResult:
     dT_dx: np.ndarray | None
     dT_dp: np.ndarray | None
     sim: SimulationResult
+    #: per phase: (duration s, d/dx, d/dp), the phases' durations with exact gradients
+    phase_times: dict | None = None
+    #: per located event, in order: (phase, event name, full state there, d/dx, d/dp)
+    event_states: list | None = None
 
 
 class _Sensitivities:
@@ -107,9 +111,10 @@ def _sens(hs: HybridSystem) -> _Sensitivities:
 class PoincareMap:
     """P(x, p) of a problem's walker: value, exact Jacobians, and a CasADi-function view."""
 
-    def __init__(self, problem):
+    def __init__(self, problem, hs: HybridSystem | None = None):
         self.problem = problem
-        self.hs = hybrid_system(problem)
+        # hs: another build of the walker (e.g. the per-leg one of pdw_casadi.stride)
+        self.hs = hs or hybrid_system(problem)
         self.sim = Simulator(problem, self.hs)
         self.state_names = self.hs.model.state_names
         self.parameter_names = self.hs.model.parameter_names
@@ -132,9 +137,17 @@ class PoincareMap:
         sr = res.steps[0]
         if not jacobian:
             return MapResult(sr.x_section_end, None, None, sr.step_time, None, None, res)
-        x_end, S, dT = self._replay(sr.plan, x, p)
+        x_end, S, dT, dT_phase, at_events = self._replay(sr.plan, x, p)
         ns = len(x)
-        return MapResult(x_end, S[:, :ns], S[:, ns:], sr.step_time, dT[:ns], dT[ns:], res)
+        durations = {}
+        for ph, d in sr.phases:
+            durations[ph] = durations.get(ph, 0.0) + d
+        phase_times = {ph: (durations[ph], g[:ns], g[ns:]) for ph, g in dT_phase.items()}
+        names = self.hs.event_list
+        event_states = [(ph, names[ph][i].name, xe, Se[:, :ns], Se[:, ns:])
+                        for ph, i, xe, Se in at_events if i >= 0]
+        return MapResult(x_end, S[:, :ns], S[:, ns:], sr.step_time, dT[:ns], dT[ns:], res,
+                         phase_times, event_states)
 
     def _replay(self, plan, xs, p):
         """Re-run the discrete map of ``plan`` with forward sensitivities (exact AD)."""
@@ -143,15 +156,20 @@ class PoincareMap:
         x, S = (np.asarray(v) for v in sens.section(xs, p))
         x = x.ravel()
         dT = np.zeros(nz)
+        dT_phase: dict[str, np.ndarray] = {}
+        at_events = []
         for item in plan.items:
             if isinstance(item, Segment):
+                before = dT
                 x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
+                dT_phase[item.phase] = dT_phase.get(item.phase, 0.0) + (dT - before)
+                at_events.append((item.phase, item.event, x, S))
             else:  # a TransitionItem
                 xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
         J_out = np.asarray(sens.section_out(x))
-        return hs.full_to_section.np(x).ravel(), J_out @ S, dT
+        return hs.full_to_section.np(x).ravel(), J_out @ S, dT, dT_phase, at_events
 
     def _segment(self, seg: Segment, x, S, dT, p, sens, nx, nz):
         mv = list(seg.mode)

@@ -60,6 +60,23 @@ class Problem:
     numerics: Mapping[str, float] = field(default_factory=lambda: _frozen(NUMERICS_DEFAULTS))
     validity: Mapping[str, float] = field(default_factory=lambda: _frozen(VALIDITY_DEFAULTS))
     source: Path | None = None
+    #: per-leg overrides {"left"|"right": {"compliance": {...}, "anthropometry": {...}}}
+    #: (``[compliance.left]``, ``[anthropometry.right]``, ... in the file); empty: both legs
+    #: use ``compliance`` and ``anthropometry`` (a symmetric walker). See pdw_casadi.stride.
+    legs: Mapping[str, Mapping[str, Mapping[str, float]]] = field(
+        default_factory=lambda: _frozen({}))
+
+    @property
+    def asymmetric(self) -> bool:
+        """True when the two physical legs have different parameters."""
+        return any(self.leg_values(side) != self.leg_values(LEG_SIDES[0]) for side in LEG_SIDES)
+
+    def leg_values(self, side: str) -> tuple[dict[str, float], dict[str, float]]:
+        """(compliance, anthropometry) of the physical leg ``side`` ("left" or "right"):
+        the shared values with that leg's overrides."""
+        over = self.legs.get(side, {})
+        return ({**self.compliance, **over.get("compliance", {})},
+                {**self.anthropometry, **over.get("anthropometry", {})})
 
     @property
     def state_names(self) -> list[str]:
@@ -127,17 +144,23 @@ class Problem:
                     "compliance_bounds"):
             if key in changes:
                 changes[key] = _frozen(changes[key])
+        if "legs" in changes:
+            changes["legs"] = _freeze_legs(changes["legs"])
         new = dataclasses.replace(self, **changes)
         _check_values(new, self.source or Path(self.name))
         return new
 
     def __getstate__(self) -> dict:
         # mapping proxies do not pickle; worker processes get plain dicts, re-frozen on arrival
-        return {f.name: (dict(v) if isinstance(v, Mapping) else v)
-                for f in dataclasses.fields(self) for v in (getattr(self, f.name),)}
+        state = {f.name: (dict(v) if isinstance(v, Mapping) else v)
+                 for f in dataclasses.fields(self) for v in (getattr(self, f.name),)}
+        state["legs"] = _thaw_legs(self.legs)
+        return state
 
     def __setstate__(self, state: dict) -> None:
         for k, v in state.items():
+            if k == "legs":
+                v = _freeze_legs(v)
             object.__setattr__(self, k, _frozen(v) if isinstance(v, dict) else v)
 
     def to_dict(self) -> dict:
@@ -147,8 +170,21 @@ class Problem:
             "compliance": dict(self.compliance),
             "compliance_bounds": {k: list(v) for k, v in self.compliance_bounds.items()},
             "initial_state": dict(self.initial_state), "numerics": dict(self.numerics),
-            "validity": dict(self.validity),
+            "validity": dict(self.validity), "legs": _thaw_legs(self.legs),
         }
+
+
+#: the physical legs; a stride starts with "left" as the stance (leading) leg
+LEG_SIDES = ("left", "right")
+
+
+def _freeze_legs(legs) -> Mapping:
+    return _frozen({side: _frozen({k: _frozen(v) for k, v in d.items()})
+                    for side, d in dict(legs).items()})
+
+
+def _thaw_legs(legs) -> dict:
+    return {side: {k: dict(v) for k, v in d.items()} for side, d in legs.items()}
 
 
 def _show(v) -> str:
@@ -246,6 +282,20 @@ def _check_values(pb: Problem, where) -> None:
         if not math.isfinite(v):
             raise ProblemError(f"{where}: 'initial_state.{k}' must be finite")
     fam.check_anthropometry(pb.anthropometry, where)
+    for side in pb.legs:
+        comp, anthro = pb.leg_values(side)
+        for k, v in anthro.items():
+            if k in fam.positive_keys and not v > 0:
+                raise ProblemError(f"{where}: 'anthropometry.{side}.{k}' must be positive, "
+                                   f"got {v}")
+        for k, v in comp.items():
+            if k in fam.nonnegative_compliance and v < 0:
+                raise ProblemError(f"{where}: 'compliance.{side}.{k}' must be >= 0, got {v}")
+            lo, hi = pb.compliance_bounds.get(k, (-math.inf, math.inf))
+            if not lo <= v <= hi:
+                raise ProblemError(f"{where}: 'compliance.{side}.{k}' = {v:g} lies outside "
+                                   f"its bounds [{lo:g}, {hi:g}]")
+        fam.check_anthropometry(anthro, f"{where} ({side} leg)")
 
 
 def load_problem(name_or_path: str | Path) -> Problem:
@@ -284,6 +334,7 @@ def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None =
                            f"{', '.join(FAMILIES)}")
     fam = get_family(family)
     env = _section(raw, where, "environment", ["g", "slope"])
+    raw, legs = _split_legs(raw, where, fam)
     anthro = _section(raw, where, "anthropometry", list(fam.anthropometry_keys))
     comp = _section(raw, where, "compliance", list(fam.compliance_keys)) \
         if fam.compliance_keys else _section(raw, where, "compliance", [], {})
@@ -313,9 +364,43 @@ def problem_from_dict(raw: Mapping, name: str = "problem", source: Path | None =
         slope=env["slope"], anthropometry=_frozen(anthro), compliance=_frozen(comp),
         compliance_bounds=_frozen(bounds), initial_state=_frozen(state),
         numerics=_frozen(numerics), validity=_frozen(validity), source=source,
+        legs=_freeze_legs(legs),
     )
     _check_values(pb, where)
     return pb
+
+
+def _split_legs(raw: Mapping, where: str, fam) -> tuple[dict, dict]:
+    """Take the per-leg subtables ([compliance.left], [anthropometry.right], ...) out of
+    ``raw``; returns (raw without them, {side: {section: {key: value}}})."""
+    raw = dict(raw)
+    legs: dict[str, dict[str, dict[str, float]]] = {}
+    family = raw["walker"]["family"]
+    for section in ("compliance", "anthropometry"):
+        sec = raw.get(section)
+        if not isinstance(sec, Mapping):
+            continue
+        sides = [k for k in sec if k in LEG_SIDES]
+        if not sides:
+            continue
+        per_leg = (fam.leg_keys or {}).get(section)
+        if per_leg is None:
+            raise ProblemError(f"{where}: the {family} walker has no per-leg {section} "
+                               f"([{section}.{sides[0]}])")
+        sec = dict(sec)
+        for side in sides:
+            sub = sec.pop(side)
+            if not isinstance(sub, Mapping):
+                raise ProblemError(f"{where}: [{section}.{side}] must be a table")
+            unknown = [k for k in sub if k not in per_leg]
+            if unknown:
+                raise ProblemError(f"{where}: unknown per-leg key(s) "
+                                   f"{', '.join(f'{section}.{side}.{k}' for k in unknown)}; "
+                                   f"allowed: {', '.join(per_leg)}")
+            legs.setdefault(side, {})[section] = {
+                k: _num(where, f"{section}.{side}.{k}", v) for k, v in sub.items()}
+        raw[section] = sec
+    return raw, legs
 
 
 def load_overrides(path: str | Path, what: str) -> dict[str, float]:

@@ -361,7 +361,7 @@ class Simulator:
     # -- whole steps -----------------------------------------------------------------------
     def run(self, x_section, p, steps: int = 1, record: bool = True,
             mode: dict | None = None, progress=None, margins: bool = False,
-            max_samples: int | None = None) -> SimulationResult:
+            max_samples: int | None = None, p_steps=None) -> SimulationResult:
         """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``.
 
         ``record``: build the trajectory DataFrame (and the steps' validity margins);
@@ -370,10 +370,14 @@ class Simulator:
         trajectory exceeds this many samples (bounds the memory of long runs).
         A numerical blow-up ends the run with failure ``numerical_divergence``
         (:class:`Failure`), never with a physical failure reason.
+        ``p_steps``: a list of parameter vectors used in turn, step k with
+        ``p_steps[k % len(p_steps)]`` (a walker whose legs differ: pdw_casadi.stride);
+        ``p`` is then ignored.
         """
         hs = self.hs
         model = hs.model
-        p = np.asarray(p, dtype=float).ravel()
+        ps = [np.asarray(v, dtype=float).ravel() for v in (p_steps or [p])]
+        p = ps[0]
         xs = np.asarray(x_section, dtype=float).ravel()
         x = hs.section_to_full.np(xs, p).ravel()
         mode = dict(mode or model.initial_mode)
@@ -389,6 +393,7 @@ class Simulator:
             if not np.all(np.isfinite(x)):
                 failure = Failure("non_finite_state", k, t, first)
                 break
+            p = ps[k % len(ps)]
             run = _PhaseRun(k)
             sr = StepRecord(k, t, [], xs.copy())
             mode = hs.refresh_indicators(first, x, p, mode)
@@ -489,7 +494,7 @@ class Simulator:
                 event_rows.append({"step": k, "phase": phase, "event": "sample_limit",
                                    "t": t, "kind": "failure"})
                 break
-        traj = self._trajectory(rec, records, p) if record else None
+        traj = self._trajectory(rec, records, ps) if record else None
         return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
 
     def _drift(self, sr, run: _PhaseRun, x, p, mode, w0) -> float | None:
@@ -526,12 +531,12 @@ class Simulator:
                     key = phase_key(phase, name)
                     margins[key] = float(min(vals.min(), margins.get(key, math.inf)))
 
-    def _trajectory(self, rec, records, p) -> pd.DataFrame:
+    def _trajectory(self, rec, records, ps) -> pd.DataFrame:
         hs = self.hs
         q_names = _q_names(hs)
         frames = []
         for ph, mv, ts, X, k in rec:
-            out = hs.outputs[ph](X, p, mv).full()
+            out = hs.outputs[ph](X, ps[k % len(ps)], mv).full()
             data = {"t": ts, "step": k, "phase": ph}
             for j, n in enumerate(q_names):
                 data[n] = X[j]

@@ -14,6 +14,14 @@ _CACHE: dict[tuple, HybridSystem] = {}
 
 def hybrid_system(problem) -> HybridSystem:
     """The :class:`HybridSystem` of ``problem``'s walker (cached across calls)."""
+    from .problem import ProblemError
+
+    if problem.asymmetric:
+        # this walker has one set of values for both legs: silently using it would drop the
+        # per-leg ones
+        raise ProblemError(f"{problem.name}: its legs differ ([compliance.left/right] or "
+                           f"[anthropometry.left/right]); this command works on the stride "
+                           f"map only (pdw-simulate, pdw-fixed-point; pdw_casadi.stride)")
     key = (problem.family, tuple(sorted(problem.anthropometry.items())), problem.g)
     if key not in _CACHE:
         model = get_family(problem.family).build(problem)

@@ -29,7 +29,8 @@ class Body:
     """A rigid link or a point mass.
 
     ``com`` is its centre of mass (2x1 SX in q), ``angle`` its absolute angle (SX in q) or
-    ``None`` for a point mass; ``mass`` in kg, ``inertia`` about the COM in kg m^2.
+    ``None`` for a point mass; ``mass`` in kg, ``inertia`` about the COM in kg m^2 (numbers,
+    or SX symbols when the body is a runtime parameter).
     """
 
     name: str
@@ -63,11 +64,14 @@ class PlanarSystem:
                 masses.append(b.inertia)
                 weights.append(0.0)
         self.r = ca.vertcat(*rows)
-        self.M = ca.DM(masses)
+        # masses may be numbers (baked into the graph) or SX (runtime body parameters)
+        numeric = all(isinstance(v, int | float) for v in masses + weights)
+        vec = ca.DM if numeric else (lambda v: ca.vertcat(*[ca.SX(x) for x in v]))
+        self.M = vec(masses)
         self.T = ca.jacobian(self.r, q)
         self.M_q = ca.mtimes([self.T.T, ca.diag(self.M), self.T])
         tdot_qd = ca.jtimes(ca.mtimes(self.T, qd), q, qd)
-        self.F_gravity = ca.mtimes(self.T.T, ca.DM(weights))
+        self.F_gravity = ca.mtimes(self.T.T, vec(weights))
         self.F_velocity = -ca.mtimes(self.T.T, self.M * tdot_qd)
         self.kinetic = 0.5 * ca.mtimes([qd.T, self.M_q, qd])
         self.potential = sum(b.mass * g * b.com[1] for b in bodies)

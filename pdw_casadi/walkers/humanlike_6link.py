@@ -30,6 +30,10 @@ POSITIVE_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "l_fc")
 NONNEGATIVE_COMPLIANCE = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee",
                           "c_knee_stance")
 MODE_KEYS = ("eng1", "eng2", "flex1", "flex2", "armed2")
+#: the anthropometry of one physical leg (everything but the lumped hip mass)
+LEG_ANTHROPOMETRY_KEYS = tuple(k for k in ANTHROPOMETRY_KEYS if k != "m_h")
+#: keys a problem may set per physical leg ([compliance.left], [anthropometry.right], ...)
+LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": LEG_ANTHROPOMETRY_KEYS}
 Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
 #: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
 SWAP = (3, 2, 1, 0, 5, 4)
@@ -76,6 +80,7 @@ def _height(point, n):
     phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
     leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
     comparison_problem=COMPARISON_PROBLEM, paper_reported_r2=PAPER_REPORTED_R2,
+    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: build_per_leg(name, g),
     phase_contacts=PHASE_CONTACTS)
 def build(problem, ext=None) -> WalkerModel:
     """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in).
@@ -85,78 +90,117 @@ def build(problem, ext=None) -> WalkerModel:
     :data:`pdw_casadi.walkers.humanlike_6link_ankle.EXTENSION`; None: the paper's walker.
     """
     a = dict(problem.anthropometry)
+    comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
+    p = ca.SX.sym("p", len(comp_keys) + 1)
+    c = {k: p[i] for i, k in enumerate(comp_keys)}
+    return _assemble(problem.name, problem.g, a, a, a["m_h"], c, c, p, p[-1],
+                     (*comp_keys, "slope"), ext)
+
+
+def per_leg_parameter_names() -> tuple[str, ...]:
+    """Parameter names of :func:`build_per_leg`: leg 1's (stance role) compliance and
+    anthropometry, leg 2's (swing role), then ``m_h`` and ``slope``."""
+    return (*(f"{k}@1" for k in COMPLIANCE_KEYS), *(f"{k}@2" for k in COMPLIANCE_KEYS),
+            *(f"{k}@1" for k in LEG_ANTHROPOMETRY_KEYS),
+            *(f"{k}@2" for k in LEG_ANTHROPOMETRY_KEYS), "m_h", "slope")
+
+
+def build_per_leg(name: str, g: float) -> WalkerModel:
+    """The walker with every body and compliance value a runtime parameter, per leg role.
+
+    p = [compliance of leg 1 (the stance leg of the step), compliance of leg 2 (swing),
+    leg-1 anthropometry, leg-2 anthropometry, m_h, slope] (:func:`per_leg_parameter_names`;
+    rad, m, kg, kg m^2, N m/rad, N m s/rad). Each joint element and link uses the values of
+    the leg it belongs to, so a caller that swaps the two leg blocks after every step makes
+    the parameters follow the physical leg through the leg swap. One compiled walker serves
+    every body: changing the anthropometry needs no recompilation.
+    """
+    names = per_leg_parameter_names()
+    p = ca.SX.sym("p", len(names))
+    sym = {n: p[i] for i, n in enumerate(names)}
+    c1 = {k: sym[f"{k}@1"] for k in COMPLIANCE_KEYS}
+    c2 = {k: sym[f"{k}@2"] for k in COMPLIANCE_KEYS}
+    a1 = {k: sym[f"{k}@1"] for k in LEG_ANTHROPOMETRY_KEYS}
+    a2 = {k: sym[f"{k}@2"] for k in LEG_ANTHROPOMETRY_KEYS}
+    return _assemble(name, g, a1, a2, sym["m_h"], c1, c2, p, sym["slope"], names)
+
+
+def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
+              ext=None) -> WalkerModel:
+    """The model from leg 1's (stance role) and leg 2's (swing role) anthropometry ``a1``,
+    ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``); ``ext``: see
+    :func:`build` (its elements read ``c1``: the same legs)."""
     q = ca.SX.sym("q", 8)
     qd = ca.SX.sym("qd", 8)
     q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
-    comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
     mode_keys = MODE_KEYS + (ext.mode_keys if ext else ())
-    p = ca.SX.sym("p", len(comp_keys) + 1)
-    c = {k: p[i] for i, k in enumerate(comp_keys)}
-    gamma = p[-1]
     m = ca.SX.sym("m", len(mode_keys))
     md = {k: m[i] for i, k in enumerate(mode_keys)}
     n = ca.vertcat(ca.sin(gamma), ca.cos(gamma))
     t_slope = ca.vertcat(ca.cos(gamma), -ca.sin(gamma))  # downhill along the ground
 
     toe1 = ca.vertcat(xt, yt)
-    ankle1 = toe1 - a["l_ft"] * direction(qf1)
-    knee1 = ankle1 - a["l_s"] * direction(q1)
-    hip = knee1 - a["l_t"] * direction(q2)
-    knee2 = hip + a["l_t"] * direction(q3)
-    ankle2 = knee2 + a["l_s"] * direction(q4)
-    toe2 = ankle2 + a["l_ft"] * direction(qf2)
-    heel1 = ankle1 - a["l_fh"] * direction(qf1)
-    heel2 = ankle2 - a["l_fh"] * direction(qf2)
+    ankle1 = toe1 - a1["l_ft"] * direction(qf1)
+    knee1 = ankle1 - a1["l_s"] * direction(q1)
+    hip = knee1 - a1["l_t"] * direction(q2)
+    knee2 = hip + a2["l_t"] * direction(q3)
+    ankle2 = knee2 + a2["l_s"] * direction(q4)
+    toe2 = ankle2 + a2["l_ft"] * direction(qf2)
+    heel1 = ankle1 - a1["l_fh"] * direction(qf1)
+    heel2 = ankle2 - a2["l_fh"] * direction(qf2)
     points = {"toe1": toe1, "heel1": heel1, "ankle1": ankle1, "knee1": knee1, "hip": hip,
               "knee2": knee2, "ankle2": ankle2, "heel2": heel2, "toe2": toe2}
     links = [("toe1", "heel1"), ("ankle1", "knee1"), ("knee1", "hip"), ("hip", "knee2"),
              ("knee2", "ankle2"), ("heel2", "toe2")]
 
     bodies = [  # order of eq. (1)
-        Body("shank1", a["m_s"], a["J_s"], ankle1 - a["l_sc"] * direction(q1), q1),
-        Body("thigh1", a["m_t"], a["J_t"], knee1 - a["l_tc"] * direction(q2), q2),
-        Body("thigh2", a["m_t"], a["J_t"], knee2 - a["l_tc"] * direction(q3), q3),
-        Body("shank2", a["m_s"], a["J_s"], ankle2 - a["l_sc"] * direction(q4), q4),
-        Body("hip", a["m_h"], 0.0, hip),
-        Body("foot1", a["m_f"], a["J_f"], ankle1 + a["l_fc"] * direction(qf1), qf1),
-        Body("foot2", a["m_f"], a["J_f"], ankle2 + a["l_fc"] * direction(qf2), qf2),
+        Body("shank1", a1["m_s"], a1["J_s"], ankle1 - a1["l_sc"] * direction(q1), q1),
+        Body("thigh1", a1["m_t"], a1["J_t"], knee1 - a1["l_tc"] * direction(q2), q2),
+        Body("thigh2", a2["m_t"], a2["J_t"], knee2 - a2["l_tc"] * direction(q3), q3),
+        Body("shank2", a2["m_s"], a2["J_s"], ankle2 - a2["l_sc"] * direction(q4), q4),
+        Body("hip", m_h, 0.0, hip),
+        Body("foot1", a1["m_f"], a1["J_f"], ankle1 + a1["l_fc"] * direction(qf1), qf1),
+        Body("foot2", a2["m_f"], a2["J_f"], ankle2 + a2["l_fc"] * direction(qf2), qf2),
     ]
-    sysm = PlanarSystem(q, qd, bodies, problem.g)
+    sysm = PlanarSystem(q, qd, bodies, g)
+    legc = {1: c1, 2: c2}
 
     def knee_damping(i):
+        c = legc[i]
         free = md[f"flex{i}"] * c["c_knee_flex"] + (1 - md[f"flex{i}"]) * c["c_knee_ext"]
         return md[f"eng{i}"] * c["c_knee_stance"] + (1 - md[f"eng{i}"]) * free
 
-    # an extension may shift the ankle spring's rest angle (foot perpendicular to the shank)
-    ankle_law = spring_damper(c["k_ankle"], math.pi / 2 + c.get("ankle_rest", 0.0),
-                              c["c_ankle"])
+    # each joint element uses the compliance of the leg it belongs to; an extension may
+    # shift the ankle spring's rest angle (foot perpendicular to the shank)
     elements = [
-        JointTorque("ankle1", qf1, q1, ankle_law),
-        JointTorque("ankle2", qf2, q4, ankle_law),
+        JointTorque("ankle1", qf1, q1, spring_damper(
+            c1["k_ankle"], math.pi / 2 + c1.get("ankle_rest", 0.0), c1["c_ankle"])),
+        JointTorque("ankle2", qf2, q4, spring_damper(
+            c2["k_ankle"], math.pi / 2 + c2.get("ankle_rest", 0.0), c2["c_ankle"])),
         JointTorque("knee1", q2, q1, engageable_spring_damper(
-            md["eng1"], c["k_knee"], c["theta_eq"], knee_damping(1))),
+            md["eng1"], c1["k_knee"], c1["theta_eq"], knee_damping(1))),
         JointTorque("knee2", q3, q4, engageable_spring_damper(
-            md["eng2"], c["k_knee"], c["theta_eq"], knee_damping(2))),
+            md["eng2"], c2["k_knee"], c2["theta_eq"], knee_damping(2))),
     ]
     if ext:
-        elements += ext.elements(c, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
+        elements += ext.elements(c1, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 
-    lf = a["l_f"]
+    lf, lf2 = a1["l_f"], a2["l_f"]
     flat1 = lf * ca.cos(qf1)
     contact_I = ContactSet("I", ca.vertcat(toe2, xt, yt, flat1),
                            ("toe2_x", "toe2_y", "toe1_x", "toe1_y", "flat1"))
     contact_II = ContactSet("II", ca.vertcat(xt, yt, flat1), ("toe1_x", "toe1_y", "flat1"))
     contact_III = ContactSet("III", ca.vertcat(xt, yt, heel2),
                              ("toe1_x", "toe1_y", "heel2_x", "heel2_y"))
-    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(xt, yt, toe2, lf * ca.cos(qf2)),
+    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(xt, yt, toe2, lf2 * ca.cos(qf2)),
                                      ("toe1_x", "toe1_y", "toe2_x", "toe2_y", "flat2"))
 
     theta1, theta2 = q2 - q1, q3 - q4
     dtheta1, dtheta2 = qd[1] - qd[0], qd[2] - qd[3]
     hip_h = _height(hip, n)
-    leg = a["l_s"] + a["l_t"]
+    leg = a1["l_s"] + a1["l_t"]
 
     def flat_foot(lam_fx, lam_fy, lam_couple, qf, tag):
         """Normal force (N), couple (N m) and centre-of-pressure margins (N m) of a flat foot.
@@ -179,12 +223,12 @@ def build(problem, ext=None) -> WalkerModel:
                      "disengaged knee changes between flexion and extension damping",
                      when=lambda md_, i=i: md_[f"eng{i}"] == 0, indicator=f"flex{i}")]
         if i == 1:
-            evs.append(Event("knee1_disengage", theta - c["theta_dis"], -1, SWITCH,
+            evs.append(Event("knee1_disengage", theta - c1["theta_dis"], -1, SWITCH,
                              "stance knee spring disengages while extending through theta_dis",
                              when=lambda md_: md_["eng1"] == 1,
                              effect=lambda md_, s: {**md_, "eng1": 0.0}))
         else:
-            evs.append(Event("knee2_engage", theta - c["theta_eq"], 0, SWITCH,
+            evs.append(Event("knee2_engage", theta - c2["theta_eq"], 0, SWITCH,
                              "armed swing knee spring engages at its equilibrium angle",
                              when=lambda md_: md_["armed2"] == 1 and md_["eng2"] == 0,
                              effect=lambda md_, s: {**md_, "eng2": 1.0, "armed2": 0.0}))
@@ -193,7 +237,7 @@ def build(problem, ext=None) -> WalkerModel:
     fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
     common_events = [*knee_events(1, theta1, dtheta1), *knee_events(2, theta2, dtheta2), fall]
     if ext:
-        common_events += ext.events(c, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
+        common_events += ext.events(c1, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
 
     # Phase I: leading foot flat, trailing toe pivot
     ph1 = make_phase(sysm, F_q, "I", contact_I)
@@ -253,12 +297,12 @@ def build(problem, ext=None) -> WalkerModel:
     foot = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike, ends_step=True)
     imp = foot.impulse
     N_imp = ca.dot(imp[2:4], n)
-    tau_imp = -lf * ca.sin(qf2) * imp[4]
+    tau_imp = -lf2 * ca.sin(qf2) * imp[4]
     foot.checks = {
         "impulse_toe1": ca.dot(imp[0:2], n),
         "impulse_foot2": N_imp,
         "impulse_cop2_from_toe": -tau_imp / N_imp,
-        "impulse_cop2_from_heel": lf + tau_imp / N_imp,
+        "impulse_cop2_from_heel": lf2 + tau_imp / N_imp,
     }
     foot.margins = {"impulse_toe1": IMPULSE, "impulse_foot2": IMPULSE,
                     "impulse_cop2_from_toe": IMPULSE_COP, "impulse_cop2_from_heel": IMPULSE_COP}
@@ -285,7 +329,7 @@ def build(problem, ext=None) -> WalkerModel:
     knee2_s = ca.substitute(knee2, ca.vertcat(q1, q2, q3, qf1, xt, yt),
                             ca.vertcat(s_q1, s_q2, s_q3, s_qf1, 0, 0))
     # toe2 height = 0: l_s cos(q4 + gamma) = knee2.n + l_ft d(qf2).n, d(a).n = -cos(a + gamma)
-    rhs_c = (_height(knee2_s, n) - a["l_ft"] * ca.cos(s_qf2 + gamma)) / a["l_s"]
+    rhs_c = (_height(knee2_s, n) - a2["l_ft"] * ca.cos(s_qf2 + gamma)) / a2["l_s"]
     root = ca.acos(ca.fmin(ca.fmax(rhs_c, -1), 1))
     r_plus, r_minus = -gamma + root, -gamma - root
     s_q4 = ca.if_else(ca.fabs(r_plus - s_q3) < ca.fabs(r_minus - s_q3), r_plus, r_minus)
@@ -314,13 +358,13 @@ def build(problem, ext=None) -> WalkerModel:
         "heel2_height_m": _height(heel2, n), "heel1_height_m": _height(heel1, n),
     }
     return WalkerModel(
-        name=problem.name, system=sysm, p=p, m=m, mode_keys=mode_keys,
+        name=name, system=sysm, p=p, m=m, mode_keys=mode_keys,
         initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0,
                       **(ext.initial_mode if ext else {})},
         F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
         phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
         section_to_full=section_to_full, full_to_section=full_to_section,
-        state_names=STATE_KEYS, parameter_names=(*comp_keys, "slope"),
+        state_names=STATE_KEYS, parameter_names=tuple(parameter_names),
         step_length=ca.dot(toe2 - toe1, t_slope), common_outputs=common, points=points,
         links=links, ground_normal=n, q_names=Q_NAMES, heel_strike_phase="III",
     )

@@ -1,0 +1,354 @@
+"""Walkers scaled to a subject: anthropometry from mass, height and sex.
+
+Body-segment parameters come from the adjusted Zatsiorsky-Seluyanov table of
+
+    P. de Leva, "Adjustments to Zatsiorsky-Seluyanov's segment inertia parameters",
+    J. Biomech. 29(9):1223-1230, 1996, Table 4 (female and male columns):
+
+segment length (mm, at the table's reference stature), mass (% body mass), centre of mass
+(% of the length from the proximal end: thigh from the hip joint centre, shank from the knee
+joint centre, foot from the heel) and sagittal radius of gyration (% of the length). The
+paper's own body (Table 1, an average 60 kg female from the Handbook of Human Motion) is the
+*reference*: its compliance, gait and numerics are carried over.
+
+The walker's foot is a rigid flat sole 0.15 m long with the ankle on the sole line, a model
+choice and not the anatomical heel-to-toe length (0.228 m in the table): the foot geometry
+and inertia are therefore scaled from Table 1 (lengths by the height ratio, inertia with the
+foot mass), and only the foot mass comes from the table. The hip mass is the rest of the body
+(head, arms, trunk lumped at the hip).
+
+Dimensional analysis gives the exact law used as the start: with lengths x s, masses x m and
+g fixed, the walker's gait is the same in dimensionless form: angles equal, rates x 1/sqrt(s),
+times x sqrt(s) (also the integrator step, so the *discrete* map scales exactly), inertias x
+m s^2, stiffness x m s, damping x m s^1.5, eigenvalues unchanged. A subject whose
+proportions differ from Table 1 is then reached by continuation in the body (anthropometry
+is a runtime parameter of the per-leg walker, :func:`pdw_casadi.stride.per_leg_system`, so no
+recompilation).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .problem import Problem, ProblemError, load_problem
+
+#: de Leva (1996), Table 4: reference stature (m), body mass (kg) and per segment
+#: (length m, mass fraction, COM fraction from the proximal end, sagittal radius of
+#: gyration fraction)
+DE_LEVA_1996 = {
+    "female": {"stature_m": 1.735, "mass_kg": 61.99,
+               "thigh": (0.3685, 0.1478, 0.3612, 0.369),
+               "shank": (0.4323, 0.0481, 0.4416, 0.271),
+               "foot": (0.2283, 0.0129, 0.4014, 0.299)},
+    "male": {"stature_m": 1.741, "mass_kg": 73.00,
+             "thigh": (0.4222, 0.1416, 0.4095, 0.329),
+             "shank": (0.4340, 0.0433, 0.4459, 0.255),
+             "foot": (0.2581, 0.0137, 0.4415, 0.257)},
+}
+SEXES = tuple(DE_LEVA_1996)
+
+#: compliance keys by physical dimension (the others are angles: unchanged by scaling)
+_STIFFNESS = ("k_ankle", "k_knee")
+_DAMPING = ("c_ankle", "c_knee_flex", "c_knee_ext", "c_knee_stance")
+_LENGTHS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh")
+_MASSES = ("m_h", "m_t", "m_s", "m_f")
+_INERTIAS = ("J_t", "J_s", "J_f")
+_RATES = ("dq1", "dq2", "dq3")
+#: compliance values adapted on the way to a subject's body (the angles stay)
+ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
+
+
+def reference_height(problem: Problem, sex: str = "female") -> float:
+    """The stature (m) the reference body stands for: the one at which the table's leg
+    (thigh + shank) equals the problem's l_t + l_s (Table 1 gives no stature)."""
+    t = DE_LEVA_1996[sex]
+    leg = (t["thigh"][0] + t["shank"][0]) / t["stature_m"]
+    return (problem.anthropometry["l_t"] + problem.anthropometry["l_s"]) / leg
+
+
+def reference_mass(problem: Problem) -> float:
+    """Total body mass (kg) of a walker problem: hip + two legs."""
+    a = problem.anthropometry
+    return a["m_h"] + 2 * (a["m_t"] + a["m_s"] + a["m_f"])
+
+
+def subject_anthropometry(mass_kg: float, height_m: float, sex: str = "female",
+                          reference: Problem | None = None) -> dict[str, float]:
+    """The 6-link walker's anthropometry (m, kg, kg m^2) for a subject, from de Leva (1996)
+    for thigh and shank (length, mass, COM, inertia) and the foot mass; foot geometry and
+    inertia from the reference body (Table 1) scaled to the subject (see module docstring)."""
+    if sex not in DE_LEVA_1996:
+        raise ProblemError(f"sex must be one of {', '.join(SEXES)}, got {sex!r}")
+    if not (20.0 <= mass_kg <= 200.0 and 1.2 <= height_m <= 2.2):
+        raise ProblemError(f"subject mass {mass_kg} kg / height {height_m} m outside the "
+                           f"adult range of the table (20-200 kg, 1.2-2.2 m)")
+    ref = reference or load_problem("humanlike_6link")
+    r = ref.anthropometry
+    t = DE_LEVA_1996[sex]
+    k = height_m / t["stature_m"]
+    out: dict[str, float] = {}
+    for seg, (L, mf, cm, rg) in (("t", t["thigh"]), ("s", t["shank"])):
+        length = L * k
+        mass = mf * mass_kg
+        out[f"l_{seg}"] = length
+        out[f"m_{seg}"] = mass
+        # COM measured from the distal joint in the walker (thigh: from the knee; shank:
+        # from the ankle); the table measures from the proximal end
+        out[f"l_{seg}c"] = (1.0 - cm) * length
+        out[f"J_{seg}"] = mass * (rg * length) ** 2
+    s = height_m / reference_height(ref, sex)
+    out["m_f"] = t["foot"][1] * mass_kg
+    for key in ("l_f", "l_fc", "l_ft", "l_fh"):
+        out[key] = r[key] * s
+    out["J_f"] = r["J_f"] * (out["m_f"] / r["m_f"]) * s**2
+    out["m_h"] = mass_kg - 2 * (out["m_t"] + out["m_s"] + out["m_f"])
+    return {key: out[key] for key in r}
+
+
+def scale_problem(problem: Problem, s: float, m: float, name: str | None = None) -> Problem:
+    """``problem`` under the uniform scaling law: lengths x s, masses x m (g fixed).
+
+    The initial state and the numerics scale with it (rates x 1/sqrt(s), the integrator
+    step and the phase time limit x sqrt(s)), so a fixed point of ``problem`` maps onto a
+    fixed point of the result exactly, with the same eigenvalues.
+    """
+    if not (s > 0 and m > 0):
+        raise ProblemError(f"scale factors must be positive, got s = {s}, m = {m}")
+    rt = math.sqrt(s)
+    law = {**{k: s for k in _LENGTHS}, **{k: m for k in _MASSES},
+           **{k: m * s**2 for k in _INERTIAS}, **{k: m * s for k in _STIFFNESS},
+           **{k: m * s**1.5 for k in _DAMPING}}
+
+    def scaled(values):
+        return {k: v * law.get(k, 1.0) for k, v in values.items()}
+
+    legs = {side: {sec: scaled(vals) for sec, vals in d.items()}
+            for side, d in problem.legs.items()}
+    bounds = {k: (lo * law.get(k, 1.0), hi * law.get(k, 1.0))
+              for k, (lo, hi) in problem.compliance_bounds.items()}
+    state = {k: v / rt if k in _RATES else v for k, v in problem.initial_state.items()}
+    numerics = {k: v * rt for k, v in problem.numerics.items()}
+    validity = dict(problem.validity)
+    validity["min_normal_force"] = validity.get("min_normal_force", 0.0) * m
+    for k in ("min_clearance", "min_cop_margin"):
+        validity[k] = validity.get(k, 0.0) * s
+    return problem.replace(name=name or f"{problem.name}_scaled",
+                           anthropometry=scaled(problem.anthropometry),
+                           compliance=scaled(problem.compliance), compliance_bounds=bounds,
+                           legs=legs, initial_state=state, numerics=numerics,
+                           validity=validity)
+
+
+def scaled_state(x, s: float) -> np.ndarray:
+    """A section state of the 6-link walker under the scaling law (rates x 1/sqrt(s))."""
+    x = np.asarray(x, float).copy()
+    x[4:] /= math.sqrt(s)
+    return x
+
+
+@dataclass
+class SubjectResult:
+    """A subject's walker: the problem (with the fixed point as its initial state), the
+    fixed point, the continuation path [(lambda, state, theta)] (lambda 0 = the uniformly
+    scaled reference, 1 = the subject), the wall time (s) and whether lambda = 1 was
+    reached."""
+
+    problem: Problem
+    fixed_point: object
+    path: list = field(default_factory=list)
+    wall_time_s: float = 0.0
+    reached: bool = False
+
+
+def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
+                       reference: Problem | None = None, x_ref=None,
+                       adapt: Sequence[str] | None = ADAPTED,
+                       options=None) -> SubjectResult:
+    """The reference walker moved onto a subject's body, with its periodic gait.
+
+    1. The reference gait (``x_ref``, else the fixed point near the problem's state) is
+       carried exactly to the uniformly scaled body (s = height / reference height, m =
+       mass / reference mass), compliance scaled by the law.
+    2. The body then moves linearly from that one (lambda = 0) to the subject's de Leva body
+       (lambda = 1) by continuation (:func:`pdw_casadi.design.continue_design`): at every
+       step the fixed point is solved together with the least relative change of the
+       ``adapt`` compliance values (both legs alike). The paper's gait is so sensitive to
+       the body that at fixed compliance it is lost within a thousandth of that path; the
+       compliance is what "adapts the walker to a weight and leg length". ``adapt=None``
+       keeps the compliance fixed (plain Newton continuation). ``options``: the solver's
+       :class:`~pdw_casadi.design.DesignOptions` (tolerance, continuation steps).
+    """
+    from .design import DesignOptions, continue_design
+    from .fixed_point import find_fixed_point
+    from .poincare import PoincareMap
+    from .stride import (
+        per_leg_system,
+        physical_parameter_names,
+        physical_parameter_vector,
+        with_physical_parameters,
+    )
+
+    t0 = time.perf_counter()
+    opts = options or DesignOptions()
+    tol = opts.tol
+    ref = reference or load_problem("humanlike_6link")
+    if ref.asymmetric:
+        raise ProblemError(f"{ref.name}: the reference body must be symmetric")
+    if x_ref is None:
+        fp0 = find_fixed_point(ref, tol=tol)
+        if not fp0.converged:
+            raise ProblemError(f"{ref.name}: no fixed point near its initial state")
+        x_ref = fp0.state
+    s = height_m / reference_height(ref, sex)
+    m = mass_kg / reference_mass(ref)
+    uni = scale_problem(ref, s, m, name=f"subject_{sex}_{mass_kg:g}kg_{height_m:g}m")
+    target = uni.replace(anthropometry=subject_anthropometry(mass_kg, height_m, sex, ref))
+    hs = per_leg_system(uni)
+    names = list(physical_parameter_names(uni))
+    theta0, theta1 = physical_parameter_vector(uni), physical_parameter_vector(target)
+    pmap = PoincareMap(uni, hs)  # symmetric body: the step map of the per-leg walker
+    free = [[names.index(f"{side}.{k}") for side in ("left", "right")] for k in (adapt or ())]
+    run = continue_design(pmap, scaled_state(x_ref, s), theta0, theta1, free, None, opts)
+    last = run.last
+    body = with_physical_parameters(uni, last.theta)
+    body = body.replace(initial_state=dict(zip(uni.initial_state, last.state, strict=True)))
+    fp = find_fixed_point(body, x0=last.state, p=last.theta, tol=tol, fallback=False,
+                          pmap=PoincareMap(body, hs))
+    return SubjectResult(body, fp, [(lam, st.copy(), th.copy()) for lam, st, th in run.path],
+                         time.perf_counter() - t0, run.reached and fp.converged)
+
+
+def problem_toml(problem: Problem, header: str = "") -> str:
+    """A problem as TOML text (the layout :func:`pdw_casadi.problem.load_problem` reads)."""
+    def table(name, values, units=None):
+        lines = [f"[{name}]"]
+        for k, v in values.items():
+            if isinstance(v, tuple | list):
+                lines.append(f"{k} = [{float(v[0])!r}, {float(v[1])!r}]")
+            else:
+                lines.append(f"{k} = {float(v)!r}")
+        return "\n".join(lines) + "\n"
+
+    parts = [header] if header else []
+    parts.append(f'[walker]\nfamily = "{problem.family}"\ntitle = "{problem.title}"\n')
+    parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
+    parts.append(table("anthropometry", problem.anthropometry))
+    for side, d in problem.legs.items():
+        if d.get("anthropometry"):
+            parts.append(table(f"anthropometry.{side}", d["anthropometry"]))
+    parts.append(table("compliance", problem.compliance))
+    for side, d in problem.legs.items():
+        if d.get("compliance"):
+            parts.append(table(f"compliance.{side}", d["compliance"]))
+    if problem.compliance_bounds:
+        parts.append(table("compliance_bounds", problem.compliance_bounds))
+    parts.append(table("initial_state", problem.initial_state))
+    parts.append(table("numerics", problem.numerics))
+    parts.append(table("validity", problem.validity))
+    return "\n".join(parts)
+
+
+SUBJECTS_FILE = "subjects/subjects_anthropometry.csv"
+
+
+def subject_row(subject_id: str) -> dict:
+    """Mass (kg), height (m) and sex of a bundled subject (data/subjects/
+    subjects_anthropometry.csv, WBDS metadata)."""
+    import pandas as pd
+
+    from .resources import bundled_dir
+
+    table = pd.read_csv(bundled_dir("data") / SUBJECTS_FILE)
+    row = table[table["subject_id"] == subject_id]
+    if row.empty:
+        raise ProblemError(f"unknown subject {subject_id!r}; known: "
+                           f"{', '.join(table['subject_id'])}")
+    r = row.iloc[0]
+    sex = {"F": "female", "M": "male"}.get(str(r["sex"]), str(r["sex"]))
+    return {"mass_kg": float(r["mass_kg"]), "height_m": float(r["height_m"]), "sex": sex}
+
+
+def scale_main(argv=None) -> int:
+    """``pdw-scale``: a problem file for a subject's body (see the module docstring).
+
+    ``--mass KG --height M [--sex female|male]`` or ``--subject ID`` (a bundled subject);
+    ``--body deleva`` (default: the de Leva 1996 body, reached by continuation from the
+    uniformly scaled reference, compliance adapted) or ``--body uniform`` (the reference
+    scaled by the exact law only). Writes ``--out FILE.toml`` with the gait found as its
+    initial state; exit code 1 (nothing written) when the continuation does not reach the
+    subject.
+    """
+    import sys
+    from pathlib import Path
+
+    from .cli_contract import NoGait, Outputs, Parser, check_output_file, open_interval, run
+
+    parser = Parser(prog="pdw-scale", description="Scale the walker to a subject's body "
+                    "(de Leva 1996 segment table).")
+    parser.add_argument("--mass", type=open_interval("--mass", 20.0, 200.0), metavar="KG",
+                        help="body mass, kg (20..200)")
+    parser.add_argument("--height", type=open_interval("--height", 1.2, 2.2), metavar="M",
+                        help="height, m (1.2..2.2)")
+    parser.add_argument("--sex", choices=SEXES, default="female")
+    parser.add_argument("--subject", metavar="ID",
+                        help="a bundled subject (mass, height and sex from "
+                             "data/subjects/subjects_anthropometry.csv), e.g. WBDS09")
+    parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
+    parser.add_argument("--problem", default="humanlike_6link",
+                        help="reference problem (default: %(default)s)")
+    parser.add_argument("--out", type=Path, required=True, metavar="FILE.toml")
+    args = parser.parse_args(argv)
+    outputs = Outputs(args.out.parent if str(args.out.parent) else Path("."))
+
+    def body() -> int:
+        check_output_file(args.out, "--out", (".toml",))
+        if args.subject:
+            if args.mass is not None or args.height is not None:
+                raise ProblemError("give either --subject or --mass and --height")
+            who = subject_row(args.subject)
+        elif args.mass is None or args.height is None:
+            raise ProblemError("give --mass and --height (or --subject ID)")
+        else:
+            who = {"mass_kg": args.mass, "height_m": args.height, "sex": args.sex}
+        ref = load_problem(args.problem)
+        print(f"scaling {ref.name} to {who['mass_kg']:g} kg, {who['height_m']:g} m, "
+              f"{who['sex']} ({args.body})...", file=sys.stderr)
+        t0 = time.perf_counter()
+        if args.body == "uniform":
+            from .fixed_point import find_fixed_point
+
+            fp0 = find_fixed_point(ref)
+            if not fp0.converged:
+                raise NoGait(f"no fixed point of {ref.name} near its initial state")
+            s = who["height_m"] / reference_height(ref, who["sex"])
+            m = who["mass_kg"] / reference_mass(ref)
+            pb = scale_problem(ref, s, m, name=args.out.stem).with_state(scaled_state(
+                fp0.state, s))
+            rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
+        else:
+            res = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], ref)
+            lam = res.path[-1][0]
+            if not res.reached:
+                raise NoGait(f"the continuation from the uniformly scaled reference stopped "
+                             f"at lambda = {lam:.4f} of the way to the subject's body "
+                             f"(nothing written)")
+            pb, rho = res.problem.replace(name=args.out.stem), res.fixed_point.spectral_radius
+            note = (f"continuation in the body from the uniformly scaled reference, "
+                    f"{len(res.path)} points, compliance adapted")
+        header = (f"# {who['mass_kg']:g} kg, {who['height_m']:g} m, {who['sex']}: written by "
+                  f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
+                  f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"
+                  f"\n# gait: {note}; spectral radius {rho:.4f}\n")
+        outputs.create()
+        args.out.write_text(problem_toml(pb, header))
+        outputs.wrote(args.out)
+        print(f"wrote {args.out} (spectral radius {rho:.4f}, lambda {lam:g}, "
+              f"{time.perf_counter() - t0:.1f} s)")
+        return 0
+
+    return run(outputs, body)

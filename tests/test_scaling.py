@@ -1,0 +1,138 @@
+"""Subject scaling (de Leva 1996 table, uniform scaling law), design continuation and the
+prosthetic-leg design."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pdw_casadi.design import DesignOptions, continue_design
+from pdw_casadi.fixed_point import find_fixed_point
+from pdw_casadi.poincare import PoincareMap
+from pdw_casadi.problem import load_problem
+from pdw_casadi.prosthesis import atlas_problem, design_prosthesis, lighter_mass
+from pdw_casadi.resources import bundled_dir
+from pdw_casadi.scaling import (
+    DE_LEVA_1996,
+    reference_mass,
+    scale_main,
+    scale_problem,
+    scaled_state,
+    subject_anthropometry,
+    subject_row,
+)
+from pdw_casadi.stride import (
+    per_leg_system,
+    physical_parameter_names,
+    physical_parameter_vector,
+)
+
+
+def _runtime_map(pb):
+    """The step map of the per-leg walker (body as runtime parameters, no recompilation)."""
+    return PoincareMap(pb, per_leg_system(pb)), physical_parameter_vector(pb)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    pb = load_problem("humanlike_6link")
+    P, theta = _runtime_map(pb)
+    fp = find_fixed_point(pb, tol=1e-11, p=theta, pmap=P)
+    assert fp.converged
+    return pb, fp
+
+
+@pytest.mark.parametrize("s, m", [(1.1, 1.25), (0.93, 0.8)])
+def test_uniform_scaling_law(reference, s, m):
+    """Lengths x s, masses x m: the scaled reference gait is a fixed point of the scaled
+    walker (angles equal, rates / sqrt(s)), same eigenvalues, times x sqrt(s)."""
+    pb, fp = reference
+    big = scale_problem(pb, s, m)
+    P, theta = _runtime_map(big)
+    x = scaled_state(fp.state, s)
+    r = P.evaluate(x, theta)
+    assert np.abs(r.x_next - x).max() < 1e-9
+    fps = find_fixed_point(big, x0=x, tol=1e-11, p=theta, pmap=P)
+    assert fps.converged and np.abs(fps.state - x).max() < 1e-9
+    want = list(fp.eigenvalues)
+    for lam in fps.eigenvalues:
+        k = int(np.argmin([abs(lam - w) for w in want]))
+        assert abs(lam - want.pop(k)) < 1e-9
+    assert abs(fps.step_time_s / fp.step_time_s - math.sqrt(s)) < 1e-9
+    assert abs(fps.step_length_m / fp.step_length_m - s) < 1e-9
+    assert abs(reference_mass(big) / reference_mass(pb) - m) < 1e-12
+
+
+def test_de_leva_table_at_its_reference_subject():
+    """At the table's own reference stature and mass the segments are the published ones."""
+    for sex, t in DE_LEVA_1996.items():
+        a = subject_anthropometry(t["mass_kg"], t["stature_m"], sex)
+        L, mf, cm, rg = t["thigh"]
+        assert abs(a["l_t"] - L) < 1e-12 and abs(a["m_t"] - mf * t["mass_kg"]) < 1e-12
+        assert abs(a["l_tc"] - (1 - cm) * L) < 1e-12
+        assert abs(a["J_t"] - mf * t["mass_kg"] * (rg * L) ** 2) < 1e-12
+        L, mf, cm, _ = t["shank"]
+        assert abs(a["l_s"] - L) < 1e-12 and abs(a["l_sc"] - (1 - cm) * L) < 1e-12
+        assert abs(a["m_f"] - t["foot"][1] * t["mass_kg"]) < 1e-12
+        total = a["m_h"] + 2 * (a["m_t"] + a["m_s"] + a["m_f"])
+        assert abs(total - t["mass_kg"]) < 1e-9
+        assert abs(a["l_ft"] + a["l_fh"] - a["l_f"]) < 1e-12
+    # female: 14.78 % thigh, 4.81 % shank, 1.29 % foot (de Leva 1996, Table 4)
+    a = subject_anthropometry(60.0, 1.70, "female")
+    assert abs(a["m_t"] - 8.868) < 1e-9 and abs(a["m_s"] - 2.886) < 1e-9
+
+
+def test_subject_rows_from_the_bundled_file():
+    row = subject_row("WBDS09")
+    assert row == {"mass_kg": 61.25, "height_m": 1.691, "sex": "female"}
+    assert (bundled_dir("data") / "subjects" / "subjects_anthropometry.csv").is_file()
+
+
+def test_pdw_scale_uniform_writes_a_walking_problem(tmp_path, capsys):
+    out = tmp_path / "me.toml"
+    assert scale_main(["--mass", "62.5", "--height", "1.70", "--body", "uniform",
+                       "--out", str(out)]) == 0
+    pb = load_problem(out)
+    assert abs(reference_mass(pb) - 62.5) < 1e-9
+    P, theta = _runtime_map(pb)
+    x = pb.state_vector()
+    assert np.abs(P(x, theta) - x).max() < 1e-9  # its initial state is its gait
+    with pytest.raises(SystemExit) as exc:
+        scale_main(["--mass", "62.5", "--out", str(tmp_path / "x.toml")])
+    assert exc.value.code == 2 and "--height" in capsys.readouterr().err
+    assert not (tmp_path / "x.toml").exists()
+
+
+def test_continuation_with_adapted_compliance(reference):
+    """A 0.5 % heavier thigh reached by continuation, compliance adapted (min-norm): the
+    end point is a fixed point of the walker with the returned parameters."""
+    pb, fp = reference
+    P, theta0 = _runtime_map(pb)
+    names = list(physical_parameter_names(pb))
+    theta1 = theta0.copy()
+    for side in ("left", "right"):
+        theta1[names.index(f"{side}.m_t")] *= 1.005
+    free = [[names.index(f"{s}.{k}") for s in ("left", "right")] for k in ("k_ankle", "k_knee")]
+    run = continue_design(P, fp.state, theta0, theta1, free, options=DesignOptions(n_min=2))
+    assert run.reached
+    th = run.last.theta
+    assert abs(th[names.index("left.m_t")] - theta1[names.index("left.m_t")]) < 1e-12
+    assert th[names.index("left.k_ankle")] == th[names.index("right.k_ankle")]
+    check = find_fixed_point(pb, x0=run.last.state, tol=1e-10, p=th, pmap=P)
+    assert check.converged and np.abs(check.state - run.last.state).max() < 1e-9
+
+
+def test_prosthesis_design_makes_the_gait_symmetric():
+    """A slightly lighter right shank and foot: the designed right-leg compliance gives
+    equal step lengths and times (exactly, to the solver tolerance) on a valid gait."""
+    pb = atlas_problem()
+    res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False,
+                             options=DesignOptions(n_min=2))
+    assert res.reached and res.fixed_point.converged and res.fixed_point.valid
+    assert abs(lighter_mass(res.problem) - 0.996) < 1e-12
+    assert abs(res.report["step_length_asymmetry_pct"]) < 1e-6
+    assert abs(res.report["step_time_asymmetry_pct"]) < 1e-6
+    assert res.compliance["k_ankle"] != pb.compliance["k_ankle"]
+    assert res.problem.asymmetric

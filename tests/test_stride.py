@@ -1,0 +1,216 @@
+"""The stride map (two steps, one per physical leg) and per-leg parameters."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+
+from pdw_casadi.fixed_point import find_fixed_point
+from pdw_casadi.poincare import PoincareMap
+from pdw_casadi.problem import ProblemError, load_problem, problem_from_dict
+from pdw_casadi.stride import (
+    StrideMap,
+    find_stride_fixed_point,
+    physical_parameter_names,
+    physical_parameter_vector,
+    stride_report,
+    with_physical_parameters,
+)
+
+
+@pytest.fixture(scope="module")
+def symmetric():
+    pb = load_problem("humanlike_6link")
+    step = find_fixed_point(pb, tol=1e-11)
+    assert step.converged
+    return pb, step
+
+
+def test_equal_legs_stride_fixed_point_is_two_steps(symmetric):
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    assert smap.per_leg  # the per-leg build, with equal values on both legs
+    stride = find_stride_fixed_point(pb, x0=step.state, tol=1e-11, smap=smap)
+    assert stride.converged
+    P = PoincareMap(pb)
+    two = P(P(step.state))
+    assert np.abs(stride.state - step.state).max() < 1e-10
+    assert np.abs(stride.state - two).max() < 1e-10
+    # eigenvalues of dS/dx are the squares of the step map's
+    want = list(step.eigenvalues ** 2)
+    for lam in stride.eigenvalues:
+        k = int(np.argmin([abs(lam - w) for w in want]))
+        assert abs(lam - want.pop(k)) < 1e-8
+    assert abs(stride.step_time_s - 2 * step.step_time_s) < 1e-10
+    rep = stride_report(smap, stride.state, curves=False)
+    assert abs(rep["step_length_asymmetry_pct"]) < 1e-8
+    assert abs(rep["step_time_asymmetry_pct"]) < 1e-8
+    assert abs(rep["legs"]["left"]["step_length_m"] - step.step_length_m) < 1e-10
+
+
+def test_per_leg_build_is_the_baked_walker(symmetric):
+    """The runtime-parameter walker computes the same step as the one with numbers baked in."""
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    p1, _ = smap.step_parameters(smap.default_parameters())
+    a = PoincareMap.evaluate(smap, step.state, p1)
+    b = PoincareMap(pb).evaluate(step.state)
+    # the same equations; only the order of the floating-point operations differs (symbols
+    # instead of folded constants), so the two agree to rounding carried through ~1400 RK4
+    # steps and three located events (about 1e-11 here), not bit for bit
+    assert np.abs(a.x_next - b.x_next).max() < 1e-10
+    assert np.abs(a.dx - b.dx).max() < 1e-8
+    assert abs(a.step_time - b.step_time) < 1e-11
+
+
+def _asymmetric(pb, **right):
+    return pb.replace(legs={"right": {"compliance": right}})
+
+
+def test_stride_jacobian_against_finite_differences(symmetric):
+    pb, step = symmetric
+    pb = _asymmetric(pb, k_ankle=5.15)
+    smap = StrideMap(pb)
+    theta = smap.default_parameters()
+    r = smap.evaluate(step.state, theta)
+    names = list(smap.parameter_names)
+    for name, d in (("right.k_ankle", 1e-4), ("left.c_knee_ext", 1e-5), ("right.m_s", 1e-5),
+                    ("m_h", 1e-4)):
+        i = names.index(name)
+        e = np.zeros_like(theta)
+        e[i] = d
+        fd = (smap(step.state, theta + e) - smap(step.state, theta - e)) / (2 * d)
+        assert np.abs(fd - r.dp[:, i]).max() < 1e-5 * max(1.0, np.abs(fd).max()), name
+    i = 2
+    e = np.zeros(7)
+    e[i] = 1e-6
+    fd = (smap(step.state + e, theta) - smap(step.state - e, theta)) / 2e-6
+    assert np.abs(fd - r.dx[:, i]).max() < 1e-5 * max(1.0, np.abs(fd).max())
+
+
+def test_parameters_follow_the_physical_leg(symmetric):
+    """Mirroring the legs (left <-> right) shifts the periodic gait by one step: the mirror
+    walker's stride fixed point is the original's state after its left-stance step."""
+    pb, step = symmetric
+    pb = _asymmetric(pb, k_ankle=5.15, c_ankle=0.83)
+    fp = find_stride_fixed_point(pb, x0=step.state, tol=1e-11)
+    assert fp.converged and fp.valid
+    c_left, _ = pb.leg_values("left")
+    c_right, _ = pb.leg_values("right")
+    mirror = pb.replace(compliance=c_right, legs={"right": {"compliance": c_left}})
+    smap = StrideMap(pb)
+    mid = smap.evaluate(fp.state, jacobian=False).steps[0].x_next
+    fpm = find_stride_fixed_point(mirror, x0=mid, tol=1e-11)
+    assert fpm.converged
+    assert np.abs(fpm.state - mid).max() < 1e-9
+    # an asymmetric gait: the step lengths differ, and swap with the legs
+    rep = stride_report(smap, fp.state, curves=False)
+    repm = stride_report(StrideMap(mirror), fpm.state, curves=False)
+    assert abs(rep["step_length_asymmetry_pct"]) > 1e-3
+    assert abs(rep["step_length_asymmetry_pct"] + repm["step_length_asymmetry_pct"]) < 1e-6
+    assert abs(rep["legs"]["left"]["step_time_s"] - repm["legs"]["right"]["step_time_s"]) < 1e-9
+
+
+def test_section_step_length_matches_the_simulator(symmetric):
+    pb, step = symmetric
+    pb = _asymmetric(pb, c_knee_ext=1.21)
+    smap = StrideMap(pb)
+    theta = smap.default_parameters()
+    r = smap.evaluate(step.state, theta, jacobian=False)
+    p1, p2 = smap.step_parameters(theta)
+    r1, r2 = r.steps
+    ell1, gx, gp = smap.step_length(r1.x_next, p2)
+    # the section rebuilds the trailing toe exactly on the ground; the simulated one sits
+    # there up to the integrator's drift of the contact constraints and the event location
+    # (~1e-11 m), so the two lengths agree to that, not bit for bit
+    assert abs(ell1 - r1.sim.steps[0].step_length) < 1e-9
+    ell2, _, _ = smap.step_length(r2.x_next, p1)
+    assert abs(ell2 - r2.sim.steps[0].step_length) < 1e-9
+    e = np.zeros(7)
+    e[0] = 1e-6
+    fd = (smap.step_length(r1.x_next + e, p2)[0] - smap.step_length(r1.x_next - e, p2)[0]) / 2e-6
+    assert abs(fd - gx[0]) < 1e-6
+
+
+def test_per_leg_problem_file(tmp_path):
+    text = load_problem("humanlike_6link").source.read_text()
+    text += "\n[compliance.right]\nk_ankle = 7.5\n\n[anthropometry.right]\nm_s = 1.9\n"
+    path = tmp_path / "pros.toml"
+    path.write_text(text)
+    pb = load_problem(path)
+    assert pb.asymmetric
+    c, a = pb.leg_values("right")
+    assert c["k_ankle"] == 7.5 and a["m_s"] == 1.9 and a["m_t"] == pb.anthropometry["m_t"]
+    assert pb.leg_values("left")[0]["k_ankle"] == pb.compliance["k_ankle"]
+    back = pickle.loads(pickle.dumps(pb))
+    assert back.leg_values("right") == pb.leg_values("right")
+    theta = physical_parameter_vector(pb)
+    names = physical_parameter_names(pb)
+    assert theta[names.index("right.k_ankle")] == 7.5
+    again = with_physical_parameters(pb, theta)
+    assert np.array_equal(physical_parameter_vector(again), theta)
+    assert not load_problem("humanlike_6link").asymmetric
+    for bad, msg in (("[compliance.right]\nk_ankel = 1.0\n", "unknown per-leg"),
+                     ("[anthropometry.left]\nm_h = 30.0\n", "unknown per-leg"),
+                     ("[compliance.right]\nk_ankle = -1.0\n", ">= 0"),
+                     ("[anthropometry.right]\nl_sc = 0.5\n", "shorter")):
+        path.write_text(load_problem("humanlike_6link").source.read_text() + "\n" + bad)
+        with pytest.raises(ProblemError, match=msg):
+            load_problem(path)
+
+
+def test_point_foot_walker_has_no_per_leg_values():
+    raw = load_problem("compass_gait").to_dict()
+    raw = {"walker": {"family": "compass_gait"}, "environment": {"g": raw["g"],
+           "slope": raw["slope"]}, "anthropometry": {**raw["anthropometry"],
+           "right": {"m": 4.0}}, "initial_state": raw["initial_state"]}
+    with pytest.raises(ProblemError, match="no per-leg"):
+        problem_from_dict(raw)
+
+
+def test_stride_map_of_a_point_foot_walker():
+    """Walkers without a per-leg build: the stride map is the step map applied twice."""
+    pb = load_problem("compass_gait")
+    step = find_fixed_point(pb, tol=1e-12)
+    fp = find_stride_fixed_point(pb, x0=step.state, tol=1e-12)
+    assert fp.converged and np.abs(fp.state - step.state).max() < 1e-10
+    assert abs(fp.spectral_radius - step.spectral_radius ** 2) < 1e-8
+
+
+def test_fixed_point_cli_on_an_asymmetric_problem(tmp_path, capsys):
+    import json
+
+    from pdw_casadi.cli import fixed_point_main
+
+    text = load_problem("humanlike_6link").source.read_text()
+    path = tmp_path / "asym.toml"
+    path.write_text(text + "\n[compliance.right]\nk_ankle = 5.15\nc_ankle = 0.83\n")
+    out = tmp_path / "fp"
+    assert fixed_point_main(["--problem", str(path), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] and summary["map"].startswith("stride")
+    legs = summary["stride"]["legs"]
+    total = legs["left"]["step_time_s"] + legs["right"]["step_time_s"]
+    assert abs(total - summary["step_time_s"]) < 1e-9  # the stride's time: both steps
+    asym = summary["stride"]["step_length_asymmetry_pct"]
+    want = 100 * (legs["left"]["step_length_m"] - legs["right"]["step_length_m"]) / (
+        0.5 * (legs["left"]["step_length_m"] + legs["right"]["step_length_m"]))
+    assert abs(asym - want) < 1e-12 and abs(asym) > 1e-3
+    curves = (out / "leg_curves.csv").read_text().splitlines()
+    assert len(curves) == 1 + 2 * 101 and (out / "leg_curves.png").stat().st_size > 0
+
+
+def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
+    from pdw_casadi.cli import sweep_main
+
+    path = tmp_path / "asym.toml"
+    path.write_text(load_problem("humanlike_6link").source.read_text()
+                    + "\n[compliance.right]\nk_ankle = 5.15\n")
+    out = tmp_path / "sw"
+    with pytest.raises(SystemExit) as exc:
+        sweep_main(["--problem", str(path), "--param", "slope", "--from", "0.148",
+                    "--to", "0.149", "--num", "2", "--out", str(out)])
+    assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
+    assert not out.exists()
