@@ -253,12 +253,12 @@ def problem_toml(problem: Problem, header: str = "") -> str:
     return "\n".join(parts)
 
 
-SUBJECTS_FILE = "subjects/subjects_anthropometry.csv"
+SUBJECTS_FILE = "anthropometry/subjects.csv"
 
 
 def subject_row(subject_id: str) -> dict:
-    """Mass (kg), height (m) and sex of a bundled subject (data/subjects/
-    subjects_anthropometry.csv, WBDS metadata)."""
+    """Mass (kg), height (m) and sex of a bundled subject (data/anthropometry/subjects.csv,
+    WBDS metadata)."""
     import pandas as pd
 
     from .resources import bundled_dir
@@ -297,7 +297,7 @@ def scale_main(argv=None) -> int:
     parser.add_argument("--sex", choices=SEXES, default="female")
     parser.add_argument("--subject", metavar="ID",
                         help="a bundled subject (mass, height and sex from "
-                             "data/subjects/subjects_anthropometry.csv), e.g. WBDS09")
+                             "data/anthropometry/subjects.csv), e.g. WBDS09")
     parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
     parser.add_argument("--problem", default="humanlike_6link",
                         help="reference problem (default: %(default)s)")

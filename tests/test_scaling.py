@@ -87,7 +87,7 @@ def test_de_leva_table_at_its_reference_subject():
 def test_subject_rows_from_the_bundled_file():
     row = subject_row("WBDS09")
     assert row == {"mass_kg": 61.25, "height_m": 1.691, "sex": "female"}
-    assert (bundled_dir("data") / "subjects" / "subjects_anthropometry.csv").is_file()
+    assert (bundled_dir("data") / "anthropometry" / "subjects.csv").is_file()
 
 
 def test_pdw_scale_uniform_writes_a_walking_problem(tmp_path, capsys):
