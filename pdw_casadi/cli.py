@@ -52,6 +52,7 @@ from .cli_contract import (
 from .errors import NoStartGait, ProblemError
 from .jsonio import write_json
 from .problem import Problem, check_bounds, load_overrides, load_problem
+from .timing import TimingError, fixed_point_timing, simulation_timing
 
 __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]
@@ -223,7 +224,16 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
         "failure": result.failure.to_dict() if result.failure else None,
         "steps": [s.to_dict() for s in result.steps],
         "margins": margins,
+        "timing": _timing_or_none(lambda: simulation_timing(problem.family, result)),
     }
+
+
+def _timing_or_none(compute):
+    """Gait timing (:mod:`pdw_casadi.timing`), or None for a walker that declares none."""
+    try:
+        return compute()
+    except TimingError:
+        return None
 
 
 def _divergence(result) -> str | None:
@@ -240,7 +250,8 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     Writes to ``--out``: ``trajectory.csv`` (one row per integration step: time, step,
     phase, coordinates, velocities and outputs), ``events.csv`` (guards, mode switches,
     failure), ``summary.json`` (phases, step time/length, speed, Poincare states, residual
-    ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope),
+    ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope, timing
+    per step and per cycle of two steps: :mod:`pdw_casadi.timing`),
     ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
     walker over all steps (:mod:`pdw_casadi.animation`). A walker that falls is a result, not
     an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
@@ -331,7 +342,8 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
     Writes ``summary.json`` (fixed_point, residual, iterations, eigenvalues as [re, im],
     spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
-    failure, distance_from_initial; identical for identical runs) and ``limit_cycle.png``
+    failure, distance_from_initial, timing: stance/swing/double support %, cadence, gait
+    events, :mod:`pdw_casadi.timing`; identical for identical runs) and ``limit_cycle.png``
     (paper's Fig. 4); the wall time goes to stdout only. Exit code 1 when Newton (and its
     IPOPT fallback) found no fixed point.
     """
@@ -374,6 +386,9 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
+        if res.converged and not stride:  # the stride map's two steps are not timed yet
+            summary["timing"] = _timing_or_none(lambda: fixed_point_timing(
+                problem, res.state, res.parameters))
         if stride:
             summary["map"] = "stride (left-stance step, then right-stance step)"
             if res.converged:
@@ -434,7 +449,10 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     One multiple-shooting IPOPT NLP per start (see :mod:`pdw_casadi.fit`), verified by a
     20-step re-simulation and the exact-AD spectral radius. Writes ``summary.json``,
     ``curves.csv``, ``fit.png`` (Fig. 5 with the problem's own compliance and, for a walker
-    that has one, its comparison walker), ``limit_cycle.png`` (Fig. 4) and ``table.md``.
+    that has one, its comparison walker; the gait events marked), ``limit_cycle.png``
+    (Fig. 4) and ``table.md`` (R^2, then the gait timing beside human values).
+    ``--timing [W]`` adds the timing target (:class:`~pdw_casadi.fit.FitOptions`
+    ``timing_weight``).
     Exit code 1 when no stable valid gait was found (the outputs then describe the best
     candidate and say so). The walker needs knee and hip outputs and something to fit
     (compliance values, or ``--free-slope``).
@@ -460,6 +478,12 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         default=0.91, metavar="R",
                         help="largest accepted spectral radius, in (0, 1) "
                              "(default: %(default)s)")
+    parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0), nargs="?",
+                        const=1.0, default=0.0, metavar="W",
+                        help="also fit the timing: add W ((stance %% - human toe-off %%) / "
+                             "10 %%)^2 to the objective (human toe off: the gait file's "
+                             "toe_off_pct column, else 60 %%, Perry & Burnfield); R^2 is "
+                             "unchanged (default W when given: 1)")
     parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=300,
                         help="IPOPT iterations per solve (default: %(default)s)")
     parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
@@ -494,6 +518,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                           max_radius=args.max_radius, multistart=args.multistart,
                           atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
+                          timing_weight=args.timing,
                           verbose=not args.quiet)
         from .fit import check_targets
 

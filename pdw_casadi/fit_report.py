@@ -30,6 +30,7 @@ from .plots import plot_fit, plot_limit_cycle
 from .problem import load_problem
 from .simulate import Simulator
 from .system import hybrid_system
+from .timing import fixed_point_timing, human_timing, timing_table
 from .units import summary_units
 
 
@@ -104,7 +105,14 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
         if d.get("curves") is not None:
             models[names[key]] = d["curves"]
             scores[names[key]] = _scores(d)
-    plot_fit(h, models, out / "fit.png", scores=scores)
+    fit_timing = None
+    if cand is not None:
+        fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
+    norms, norms_source = human_timing(human)
+    markers = {"human toe off": norms["toe_off_pct"]}
+    if fit_timing is not None:
+        markers.update({f"fit {k}": v for k, v in fit_timing.markers().items()})
+    plot_fit(h, models, out / "fit.png", scores=scores, markers=markers)
 
     summary: dict = {"gait_file": str(human.source), "problem": problem.name,
                      "targets": list(res.targets), "paper_reported": paper,
@@ -135,7 +143,8 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             "step_time_s": fp.step_time_s, "step_length_m": fp.step_length_m,
             "speed_m_s": fp.step_length_m / fp.step_time_s,
             "resimulation_deviation": cand.resimulation_deviation,
-            "resimulation_steps": opts.resim_steps, "accepted": ok})
+            "resimulation_steps": opts.resim_steps, "accepted": ok,
+            "timing": None if fit_timing is None else fit_timing.to_dict()})
         sim = Simulator(problem)
         two = sim.run(cand.state, cand.parameters, steps=2, record=True)
         plot_limit_cycle(two.trajectory, out / "limit_cycle.png", faces=faces,
@@ -155,7 +164,12 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
     head = (f"# Fit of {problem.name} to {Path(str(human.source)).name}\n\n"
             f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, "
             f"docs/model.md of pdw-casadi).\n\n")
-    (out / "table.md").write_text(head + _table(rows))
+    summary["timing_human"] = {"values": norms, "source": norms_source}
+    timings = {"this fit": fit_timing, "problem file's compliance": table3.get("timing")}
+    if comparison is not None:
+        timings["comparison walker"] = comparison.get("timing")
+    (out / "table.md").write_text(head + _table(rows) + "\n## Gait timing\n\n"
+                                  + timing_table(timings, human))
     if cand is None:
         summary["headline"] = "no fit: " + "; ".join(res.notes or ["every start failed"])
     else:

@@ -346,10 +346,12 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str 
 
 
 def plot_fit(human, models: dict, path=None, scores: dict | None = None, *,
-             ax=None) -> Figure:
+             markers: dict | None = None, ax=None) -> Figure:
     """The paper's Fig. 5: knee (a) and hip (b) over the gait cycle, human mean +/- SD and
     one curve per model (deg against % of the cycle); R^2 in the legends (below the
-    panels) when given. ``ax``: two Axes. Returns the figure (also written to ``path``)."""
+    panels) when given; ``markers``: label -> % of the cycle, drawn as vertical lines (gait
+    events; labels starting with "human" dashed). ``ax``: two Axes. Returns the figure
+    (also written to ``path``)."""
     fig, axes = _axes(ax, 1, 2, (11, 5.2))
     pct = human.cycle_pct
     for ax, name, mean, sd in ((axes[0], "knee", human.knee_deg, human.knee_sd_deg),
@@ -361,6 +363,11 @@ def plot_fit(human, models: dict, path=None, scores: dict | None = None, *,
             r2 = (scores or {}).get(label, {}).get(f"r2_{name}")
             tag = f" (R$^2$ = {r2:.3f})" if r2 is not None else ""
             ax.plot(model["cycle_pct"], model[f"{name}_deg"], lw=1.5, label=label + tag)
+        for i, (label, pct_m) in enumerate((markers or {}).items()):
+            if pct_m is not None:
+                ax.axvline(pct_m, color=f"C{(i + 3) % 10}", lw=0.9, alpha=0.8,
+                           ls="--" if label.startswith("human") else ":",
+                           label=f"{label} ({pct_m:.1f} %)")
         ax.set_xlabel("gait cycle (%)")
         ax.set_ylabel(f"{name} angle (deg)")
         ax.grid(alpha=0.3)

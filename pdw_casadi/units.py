@@ -38,7 +38,8 @@ DESCRIBED = {
     "poincare_states": "one section state per row (units as fixed_point / initial_state)",
 }
 #: compliance units by name prefix (stiffness, damping, angles)
-COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad"))
+COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad"),
+                       ("phi_", "rad"), ("ankle_rest", "rad"))
 
 
 def _suffix_unit(name: str) -> str | None:

@@ -16,6 +16,7 @@ NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
 @pytest.mark.parametrize("name, images", [("01_reproduce_paper.ipynb", 2),
                                           ("02_fit_your_gait.ipynb", 1),
                                           ("03_slope_sweep.ipynb", 3),
+                                          ("04_humanlike_timing.ipynb", 1),
                                           ("05_prosthesis_design.ipynb", 1)])
 def test_notebook_runs(name, images, tmp_path, monkeypatch):
     monkeypatch.setenv("PDW_NOTEBOOK_SMALL", "1")

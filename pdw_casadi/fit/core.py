@@ -69,8 +69,10 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
     rounds: list[Candidate] = []
     for rnd in range(opts.rounds):
         try:
+            headroom = max(opts.segment_headroom_s,
+                           opts.timing_headroom_s if opts.timing_weight > 0 else 0.0)
             nlp = ShootingNLP(problem, x, p, free=free, sample_stride=opts.sample_stride,
-                              hs=sim.hs, headroom_s=opts.segment_headroom_s)
+                              hs=sim.hs, headroom_s=headroom)
         except ValueError as exc:
             notes.append(f"start {s} round {rnd}: {exc}")
             log(notes[-1])

@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 
 from ..callback import NumericFunction
+from ..timing import human_timing, phase_contacts
 from .objective import curve_errors
 from .options import FitOptions
 from .stability import StabilityRow
@@ -122,6 +123,17 @@ class _Progress(ca.Callback):
         return [0]
 
 
+def stance_pct_expr(nlp) -> ca.MX:
+    """The stance (= toe off) in % of the gait cycle of the NLP's step, from its segment
+    durations and the walker's phase_contacts (symmetric gait: a cycle is two steps)."""
+    contacts = phase_contacts(nlp.problem.family)
+    down = 0
+    for k, s in enumerate(nlp.specs):
+        legs = sum(c is not None for c in contacts[s.phase])
+        down = down + legs * nlp.T[k]
+    return 100.0 * down / (2.0 * nlp.step_time)
+
+
 class FitSolver:
     """IPOPT on one :class:`~pdw_casadi.shooting.ShootingNLP` with the curve objective.
 
@@ -140,6 +152,14 @@ class FitSolver:
             self.E[target], self.ss[target] = E, ss_tot
             rows.append(ca.vec(E - err))
             obj = obj + ca.sumsqr(E) / ss_tot
+        self.timing = None
+        if opts.timing_weight > 0:
+            stance = stance_pct_expr(nlp)
+            target = human_timing(human)[0]["toe_off_pct"]
+            term = opts.timing_weight * ((stance - target) / 10.0) ** 2
+            obj = obj + term
+            self.timing = ca.Function("timing", [nlp.w], [stance, term])
+            self.timing_target = target
         self.e = ca.vertcat(*[ca.vec(E) for E in self.E.values()])
         self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(e) for e, _ in
                                                              errs.values()])])
@@ -192,7 +212,15 @@ class FitSolver:
         sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         st = solver.stats()
         x = sol["x"].full().ravel()
-        return {"w": x[: self.n_w], "objective": float(sol["f"]), "status": st["return_status"],
+        f = float(sol["f"])
+        timing = {}
+        if self.timing is not None:
+            stance, term = (float(v) for v in self.timing(x[: self.n_w]))
+            f -= term  # the curve part: what the re-simulated R^2 is checked against
+            timing = {"stance_pct": stance, "target_toe_off_pct": self.timing_target,
+                      "timing_objective": term}
+        return {"w": x[: self.n_w], "objective": f, "timing": timing,
+                "status": st["return_status"],
                 "iterations": int(st["iter_count"]), "wall_time_s": time.perf_counter() - t0,
                 "success": st["return_status"] in ("Solve_Succeeded",
                                                    "Solved_To_Acceptable_Level"),

@@ -56,6 +56,13 @@ class FitOptions:
     #: (its shooting intervals bound it); 0.015 s did not help WBDS20 and costs 14 % more
     #: unknowns (measured on that one file)
     segment_headroom_s: float = 0.0
+    #: weight of the optional timing target (0: off, pdw-fit --timing): the objective adds
+    #: timing_weight ((stance % - the human toe-off %) / 10 %)^2, the model's stance in % of
+    #: its gait cycle from the NLP's own phase durations (pdw_casadi.timing); R^2 is unchanged
+    timing_weight: float = 0.0
+    #: with the timing target on, every segment may grow this much (s): double support must
+    #: be free to grow from a few ms to tens of ms within one solve
+    timing_headroom_s: float = 0.06
     resim_steps: int = 20  # steps of the re-simulation check
     resim_tol: float = 1e-6  # largest accepted re-simulation deviation (rad, rad/s)
     verbose: bool = True  # one progress line per IPOPT iteration

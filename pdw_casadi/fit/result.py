@@ -11,6 +11,7 @@ import pandas as pd
 from ..curves import cycle_curves, fit_scores, gait_cycle
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..simulate import Simulator
+from ..timing import TimingError, step_timing
 from .options import FitOptions
 
 
@@ -123,5 +124,13 @@ def reference_gait(problem, human) -> dict:
         return out
     curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
     out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
-               step_length_m=fp.step_length_m)
+               step_length_m=fp.step_length_m, timing=_timing(problem, one))
     return out
+
+
+def _timing(problem, one):
+    """The gait timing of a one-step run from a fixed point (None: the walker has none)."""
+    try:
+        return step_timing(problem.family, one.steps[0])
+    except TimingError:
+        return None

@@ -10,7 +10,7 @@ a module here with a registered ``build``, imported below.
 
 from __future__ import annotations
 
-from . import humanlike_6link, point_foot  # noqa: F401 (registers the families)
+from . import humanlike_6link, humanlike_6link_ankle, point_foot  # noqa: F401 (registers)
 from .registry import FAMILIES, Family, get_family, register
 
 __all__ = ["FAMILIES", "Family", "get_family", "register"]

@@ -46,6 +46,8 @@ PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
 LIMIT_CYCLE_LEGS = (("q1", "q2"), ("q4", "q3"))
 LEG_SEGMENTS = ("shank", "thigh")
 CURVE_JOINTS = ("knee", "hip")
+#: what touches the ground in each phase, (leg 1, leg 2): see pdw_casadi.timing
+PHASE_CONTACTS = {"I": ("flat", "toe"), "II": ("flat", None), "III": ("toe", "heel")}
 #: instants of the paper's Fig. 4: a (foot strike), b (toe-off), c (heel strike)
 INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c"}
 #: the paper's comparison walker [48] (point feet, locked stance knee), this anthropometry
@@ -78,14 +80,21 @@ def _height(point, n):
     phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
     leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
     comparison_problem=COMPARISON_PROBLEM, paper_reported_r2=PAPER_REPORTED_R2,
-    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: build_per_leg(name, g))
-def build(problem) -> WalkerModel:
-    """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in)."""
+    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: build_per_leg(name, g),
+    phase_contacts=PHASE_CONTACTS)
+def build(problem, ext=None) -> WalkerModel:
+    """The symbolic model of the walker with ``problem``'s anthropometry (numbers baked in).
+
+    ``ext``: an extension of the passive elements (extra compliance keys, mode flags,
+    torque elements, events and mode rules at the transitions), e.g.
+    :data:`pdw_casadi.walkers.humanlike_6link_ankle.EXTENSION`; None: the paper's walker.
+    """
     a = dict(problem.anthropometry)
-    p = ca.SX.sym("p", len(COMPLIANCE_KEYS) + 1)
-    c = {k: p[i] for i, k in enumerate(COMPLIANCE_KEYS)}
+    comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
+    p = ca.SX.sym("p", len(comp_keys) + 1)
+    c = {k: p[i] for i, k in enumerate(comp_keys)}
     return _assemble(problem.name, problem.g, a, a, a["m_h"], c, c, p, p[-1],
-                     (*COMPLIANCE_KEYS, "slope"))
+                     (*comp_keys, "slope"), ext)
 
 
 def per_leg_parameter_names() -> tuple[str, ...]:
@@ -116,14 +125,17 @@ def build_per_leg(name: str, g: float) -> WalkerModel:
     return _assemble(name, g, a1, a2, sym["m_h"], c1, c2, p, sym["slope"], names)
 
 
-def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> WalkerModel:
+def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
+              ext=None) -> WalkerModel:
     """The model from leg 1's (stance role) and leg 2's (swing role) anthropometry ``a1``,
-    ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``)."""
+    ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``); ``ext``: see
+    :func:`build` (its elements read ``c1``: the same legs)."""
     q = ca.SX.sym("q", 8)
     qd = ca.SX.sym("qd", 8)
     q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
-    m = ca.SX.sym("m", len(MODE_KEYS))
-    md = {k: m[i] for i, k in enumerate(MODE_KEYS)}
+    mode_keys = MODE_KEYS + (ext.mode_keys if ext else ())
+    m = ca.SX.sym("m", len(mode_keys))
+    md = {k: m[i] for i, k in enumerate(mode_keys)}
     n = ca.vertcat(ca.sin(gamma), ca.cos(gamma))
     t_slope = ca.vertcat(ca.cos(gamma), -ca.sin(gamma))  # downhill along the ground
 
@@ -158,17 +170,20 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> Walker
         free = md[f"flex{i}"] * c["c_knee_flex"] + (1 - md[f"flex{i}"]) * c["c_knee_ext"]
         return md[f"eng{i}"] * c["c_knee_stance"] + (1 - md[f"eng{i}"]) * free
 
-    # each joint element uses the compliance of the leg it belongs to
+    # each joint element uses the compliance of the leg it belongs to; an extension may
+    # shift the ankle spring's rest angle (foot perpendicular to the shank)
     elements = [
-        JointTorque("ankle1", qf1, q1, spring_damper(c1["k_ankle"], math.pi / 2,
-                                                     c1["c_ankle"])),
-        JointTorque("ankle2", qf2, q4, spring_damper(c2["k_ankle"], math.pi / 2,
-                                                     c2["c_ankle"])),
+        JointTorque("ankle1", qf1, q1, spring_damper(
+            c1["k_ankle"], math.pi / 2 + c1.get("ankle_rest", 0.0), c1["c_ankle"])),
+        JointTorque("ankle2", qf2, q4, spring_damper(
+            c2["k_ankle"], math.pi / 2 + c2.get("ankle_rest", 0.0), c2["c_ankle"])),
         JointTorque("knee1", q2, q1, engageable_spring_damper(
             md["eng1"], c1["k_knee"], c1["theta_eq"], knee_damping(1))),
         JointTorque("knee2", q3, q4, engageable_spring_damper(
             md["eng2"], c2["k_knee"], c2["theta_eq"], knee_damping(2))),
     ]
+    if ext:
+        elements += ext.elements(c1, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 
@@ -221,6 +236,8 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> Walker
 
     fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
     common_events = [*knee_events(1, theta1, dtheta1), *knee_events(2, theta2, dtheta2), fall]
+    if ext:
+        common_events += ext.events(c1, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
 
     # Phase I: leading foot flat, trailing toe pivot
     ph1 = make_phase(sysm, F_q, "I", contact_I)
@@ -301,6 +318,9 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> Walker
                 "armed2": 0.0}
 
     foot.mode_after = after_foot_strike
+    if ext:
+        for tr in (toe_off, heel, foot):
+            tr.mode_after = ext.mode_rule(tr.name, tr.mode_after)
 
     # section state <-> full state
     xs = ca.SX.sym("xs", len(STATE_KEYS))
@@ -338,8 +358,9 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names) -> Walker
         "heel2_height_m": _height(heel2, n), "heel1_height_m": _height(heel1, n),
     }
     return WalkerModel(
-        name=name, system=sysm, p=p, m=m, mode_keys=MODE_KEYS,
-        initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0},
+        name=name, system=sysm, p=p, m=m, mode_keys=mode_keys,
+        initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0,
+                      **(ext.initial_mode if ext else {})},
         F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
         phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
         section_to_full=section_to_full, full_to_section=full_to_section,

@@ -109,7 +109,8 @@ def check_compass_gait(a, where) -> None:
     positive_keys=CG_ANTHROPOMETRY_KEYS, check_anthropometry=check_compass_gait,
     phase_descriptions={"swing": "stance foot pinned, swing leg free"},
     limit_cycle_legs=(("q_st",), ("q_sw",)), leg_segments=("leg",),
-    curve_joints=("hip",))  # rigid legs: no knee
+    curve_joints=("hip",),  # rigid legs: no knee
+    phase_contacts={"swing": ("point", None)})
 def build_compass_gait(problem) -> WalkerModel:
     """The compass-gait model with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)
@@ -194,7 +195,8 @@ def check_kneed_walker(a, where) -> None:
     phase_descriptions={"unlocked": "stance knee locked, swing knee free",
                         "locked": "both knees locked"},
     limit_cycle_legs=(("q1", "q2"), ("q4", "q3")), leg_segments=("shank", "thigh"),
-    curve_joints=("knee", "hip"))
+    curve_joints=("knee", "hip"),
+    phase_contacts={"unlocked": ("point", None), "locked": ("point", None)})
 def build_kneed_walker(problem) -> WalkerModel:
     """The kneed-walker model with ``problem``'s anthropometry (numbers baked in)."""
     a = dict(problem.anthropometry)

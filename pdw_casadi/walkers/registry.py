@@ -27,9 +27,9 @@ class Family:
     where)``: further rules (raises ProblemError). The faces (see :mod:`pdw_casadi.faces`):
     ``phase_descriptions``, ``limit_cycle_legs`` (per step, the coordinates of one physical
     leg's segments), ``leg_segments``, ``curve_joints``, ``instant_labels``,
-    ``comparison_problem`` (a bundled problem the fit report compares with) and
-    ``paper_reported_r2``; ``leg_keys`` and ``build_per_leg`` for walkers whose legs may
-    differ.
+    ``comparison_problem`` (a bundled problem the fit report compares with),
+    ``paper_reported_r2`` and ``phase_contacts`` (the gait timing); ``leg_keys`` and
+    ``build_per_leg`` for walkers whose legs may differ.
     """
 
     name: str
@@ -48,6 +48,9 @@ class Family:
     instant_labels: Mapping[str, str] = field(default_factory=dict)
     comparison_problem: str | None = None
     paper_reported_r2: Mapping[str, float] | None = None
+    #: phase -> (what leg 1 touches, what leg 2 touches): "flat", "heel", "toe", "point" or
+    #: None (in the air); the gait timing reads it (:mod:`pdw_casadi.timing`)
+    phase_contacts: Mapping[str, tuple[str | None, str | None]] = field(default_factory=dict)
     #: per physical leg (pdw_casadi.stride): the keys a problem may set per leg
     #: ({"compliance": ..., "anthropometry": ...}) and ``build_per_leg(name, g)``, the
     #: walker with every body and compliance value a runtime parameter, leg by leg
