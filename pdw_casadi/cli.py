@@ -49,10 +49,10 @@ from .cli_contract import (
     run,
     user_errors,
 )
-from .errors import NoStartGait, ProblemError
+from .errors import NoStartGait, ProblemError, TimingError
 from .jsonio import write_json
 from .problem import Problem, check_bounds, load_overrides, load_problem
-from .timing import TimingError, fixed_point_timing, simulation_timing
+from .timing import fixed_point_timing, simulation_timing
 
 __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]

@@ -20,6 +20,10 @@ class CurveError(ValueError):
     """The curves cannot be fitted: the walker or the curve file lacks a target."""
 
 
+class TimingError(ValueError):
+    """The phases cannot be timed (unknown phase, a leg that never touches the ground)."""
+
+
 class UsageError(ProblemError):
     """Bad command-line input (exit code 2, one ``error:`` line)."""
 

@@ -25,6 +25,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from .errors import TimingError
 from .simulate import Simulator
 from .walkers import get_family
 
@@ -54,10 +55,6 @@ UNITS = {"step_time_s": "s", "cycle_time_s": "s", "step_length_m": "m",
          "heel_off_pct": "% of cycle", "toe_off_pct": "% of cycle",
          "stance_s": "s", "swing_s": "s", "double_support_s": "s",
          "phase_durations_s": "s"}
-
-
-class TimingError(ValueError):
-    """The phases cannot be timed (unknown phase, a leg that never touches the ground)."""
 
 
 @dataclass(frozen=True)

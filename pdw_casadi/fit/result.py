@@ -9,9 +9,10 @@ import numpy as np
 import pandas as pd
 
 from ..curves import cycle_curves, fit_scores, gait_cycle
+from ..errors import TimingError
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..simulate import Simulator
-from ..timing import TimingError, step_timing
+from ..timing import step_timing
 from .options import FitOptions
 
 
