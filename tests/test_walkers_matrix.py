@@ -108,11 +108,27 @@ def test_fittable_walkers():
     assert FITTABLE == ["humanlike_6link", "humanlike_6link_ankle", *sorted(STUDY_VARIANTS)]
 
 
-#: the ankle walkers' fits take minutes and, from the shipped --timing gait, end with a
-#: margin at its bound that the re-simulation check decides (README, gait timing): slow
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow)
-                                  if n.startswith("humanlike_6link_ankle") else n
-                                  for n in FITTABLE])
+#: known failures of the tiny fit (60 iterations, own start), measured: they fail now and
+#: turn this run red (strict) the day they pass, so that the limit is not forgotten
+FIT_TINY_FAILS = {
+    "humanlike_6link_ankle": "the fit from the shipped --timing gait converges but is "
+                             "rejected: a margin ends on its bound and the re-simulation "
+                             "deviates by more than 1e-6",
+    "humanlike_6link_ankle_clutch": "IPOPT needs more than 60 iterations (the study: 1000)",
+    "humanlike_6link_ankle_load": "IPOPT needs more than 60 iterations (the study: 1000)",
+}
+
+
+def _fit_param(n):
+    if not n.startswith("humanlike_6link_ankle"):
+        return n
+    marks = [pytest.mark.slow]  # the ankle walkers' fits take minutes
+    if n in FIT_TINY_FAILS:
+        marks.append(pytest.mark.xfail(strict=True, reason=FIT_TINY_FAILS[n]))
+    return pytest.param(n, marks=marks)
+
+
+@pytest.mark.parametrize("name", [_fit_param(n) for n in FITTABLE])
 def test_fit_tiny(name, tmp_path, capsys):
     out = tmp_path / "fit"
     # from the problem's own compliance the 6-link fit converges in about 20 iterations
