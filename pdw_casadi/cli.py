@@ -49,10 +49,10 @@ from .cli_contract import (
     run,
     user_errors,
 )
-from .errors import NoStartGait, ProblemError, TimingError
+from .errors import NoStartGait, ProblemError
 from .jsonio import write_json
 from .problem import Problem, check_bounds, load_overrides, load_problem
-from .timing import fixed_point_timing, simulation_timing
+from .timing import fixed_point_timing, simulation_timing, timing_or_none
 
 __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main"]
@@ -224,16 +224,8 @@ def simulation_summary(problem: Problem, result, steps_requested: int | None = N
         "failure": result.failure.to_dict() if result.failure else None,
         "steps": [s.to_dict() for s in result.steps],
         "margins": margins,
-        "timing": _timing_or_none(lambda: simulation_timing(problem.family, result)),
+        "timing": timing_or_none(lambda: simulation_timing(problem.family, result)),
     }
-
-
-def _timing_or_none(compute):
-    """Gait timing (:mod:`pdw_casadi.timing`), or None for a walker that declares none."""
-    try:
-        return compute()
-    except TimingError:
-        return None
 
 
 def _divergence(result) -> str | None:
@@ -387,7 +379,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
         if res.converged and not stride:  # the stride map's two steps are not timed yet
-            summary["timing"] = _timing_or_none(lambda: fixed_point_timing(
+            summary["timing"] = timing_or_none(lambda: fixed_point_timing(
                 problem, res.state, res.parameters))
         if stride:
             summary["map"] = "stride (left-stance step, then right-stance step)"

@@ -87,21 +87,15 @@ def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra |
     def theta_of(u_):
         return theta0 + E @ u_
 
-    def residual(x_, u_, jac=True):
+    def residual(x_, u_):
         th = theta_of(u_)
-        r = pmap.evaluate(x_, th, jacobian=jac or extra is not None)
-        F = r.x_next - x_
-        if not jac and extra is None:
-            return F, None
-        rows = [F]
-        J = None
-        if jac:
-            J = np.hstack([r.dx - np.eye(n), r.dp @ E])
+        r = pmap.evaluate(x_, th, jacobian=True)
+        rows = [r.x_next - x_]
+        J = np.hstack([r.dx - np.eye(n), r.dp @ E])
         if extra is not None:
             v, vx, vt = extra(r, x_, th)
             rows.append(np.atleast_1d(v))
-            if jac:
-                J = np.vstack([J, np.hstack([np.atleast_2d(vx), np.atleast_2d(vt) @ E])])
+            J = np.vstack([J, np.hstack([np.atleast_2d(vx), np.atleast_2d(vt) @ E])])
         return np.concatenate(rows), J
 
     history = []

@@ -58,8 +58,7 @@ class Margin:
             return f"{key} = {value:.3g} <= 0" if value <= 0 else None
         need = self.minimum(validity)
         if value - need < 0:
-            return f"{key} = {value:.3g} {self.unit} < {validity.get(self.requirement, 0.0)} " \
-                   f"{self.unit}"
+            return f"{key} = {value:.3g} {self.unit} < {need} {self.unit}"
         return None
 
     def counted(self, t, t0: float, duration: float) -> np.ndarray:

@@ -144,10 +144,12 @@ def scale_problem(problem: Problem, s: float, m: float, name: str | None = None)
                            validity=validity)
 
 
-def scaled_state(x, s: float) -> np.ndarray:
-    """A section state of the 6-link walker under the scaling law (rates x 1/sqrt(s))."""
+def scaled_state(problem: Problem, x, s: float) -> np.ndarray:
+    """A section state of ``problem``'s 6-link walker under the scaling law (rates (rad/s)
+    x 1/sqrt(s), angles unchanged)."""
     x = np.asarray(x, float).copy()
-    x[4:] /= math.sqrt(s)
+    names = list(problem.state_names)
+    x[[names.index(k) for k in _RATES]] /= math.sqrt(s)
     return x
 
 
@@ -213,7 +215,7 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     theta0, theta1 = physical_parameter_vector(uni), physical_parameter_vector(target)
     pmap = PoincareMap(uni, hs)  # symmetric body: the step map of the per-leg walker
     free = [[names.index(f"{side}.{k}") for side in ("left", "right")] for k in (adapt or ())]
-    run = continue_design(pmap, scaled_state(x_ref, s), theta0, theta1, free, None, opts)
+    run = continue_design(pmap, scaled_state(ref, x_ref, s), theta0, theta1, free, None, opts)
     last = run.last
     body = with_physical_parameters(uni, last.theta)
     body = body.replace(initial_state=dict(zip(uni.initial_state, last.state, strict=True)))
@@ -328,7 +330,7 @@ def scale_main(argv=None) -> int:
             s = who["height_m"] / reference_height(ref, who["sex"])
             m = who["mass_kg"] / reference_mass(ref)
             pb = scale_problem(ref, s, m, name=args.out.stem).with_state(scaled_state(
-                fp0.state, s))
+                ref, fp0.state, s))
             rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
         else:
             res = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], ref)

@@ -186,10 +186,9 @@ def _section_step_length(hs: HybridSystem):
     model = hs.model
     xs = ca.SX.sym("xs", len(model.state_names))
     p = model.p
-    x_full = model.section_to_full(xs, p)
-    toe2 = hs.points(x_full, p)[:, hs.point_names.index("toe2")]
-    gamma = p[-1]
-    ell = -(toe2[0] * ca.cos(gamma) - toe2[1] * ca.sin(gamma))
+    # the walker's own step length (leading minus trailing toe along the slope), read
+    # with the legs' roles after the swap
+    ell = -hs.step_length.fun(model.section_to_full(xs, p), p)
     return ca.Function("section_step_length", [xs, p],
                        [ell, ca.jacobian(ell, xs), ca.jacobian(ell, p)])
 
@@ -315,17 +314,3 @@ def stride_simulator(problem) -> tuple[Simulator, list[np.ndarray]]:
     smap = problem if isinstance(problem, StrideMap) else StrideMap(problem)
     return Simulator(smap.problem, smap.hs), list(smap.step_parameters(
         smap.default_parameters()))
-
-
-def simulate_strides(problem, strides: int = 1, state=None) -> pd.DataFrame:
-    """Trajectory of ``strides`` strides from ``state`` (default: the problem's), with the
-    physical stance leg in column ``stance_leg``. Raises
-    :class:`~pdw_casadi.poincare.PoincareError` when a step fails."""
-    sim, ps = stride_simulator(problem)
-    x = sim.problem.state_vector() if state is None else np.asarray(state, float)
-    res = sim.run(x, ps[0], steps=2 * strides, record=True, p_steps=ps)
-    if res.failure is not None:
-        raise PoincareError(res.failure)
-    tr = res.trajectory
-    tr["stance_leg"] = np.where(tr["step"].to_numpy() % 2 == 0, LEG_SIDES[0], LEG_SIDES[1])
-    return tr

@@ -29,9 +29,6 @@ from .errors import TimingError
 from .simulate import Simulator
 from .walkers import get_family
 
-#: the contacts a walker may declare in phase_contacts
-CONTACTS = ("flat", "heel", "toe", "point")
-
 #: Perry & Burnfield (2010), normal adult free walking: stance 60 %, swing 40 %, initial and
 #: terminal double support 10 % each, heel off (onset of terminal stance) at about 31 %, toe
 #: off 60 %; foot flat is taken at the end of loading response (10 %, an upper estimate: the
@@ -190,6 +187,14 @@ def gait_timing(phases: Sequence[tuple[str, float]], step_length: float,
         toe_off_pct=pct(toe_off if toe_off is not None else T),
         stance_s=stance, swing_s=T - stance, double_support_s=tuple(ds),
         phase_durations_s=tuple((name, float(d)) for name, d in phases))
+
+
+def timing_or_none(compute):
+    """``compute()`` (a gait timing), or None for a walker that declares no timing."""
+    try:
+        return compute()
+    except TimingError:
+        return None
 
 
 def step_timing(family: str, step, next_step=None) -> GaitTiming:

@@ -42,9 +42,12 @@ COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad")
                        ("phi_", "rad"), ("ankle_rest", "rad"))
 
 
+#: SUFFIXES, the longest first (a name ends in the longest suffix it matches)
+_SUFFIXES_LONGEST_FIRST = tuple(sorted(SUFFIXES.items(), key=lambda kv: -len(kv[0])))
+
+
 def _suffix_unit(name: str) -> str | None:
-    return next((u for s, u in sorted(SUFFIXES.items(), key=lambda kv: -len(kv[0]))
-                 if name.endswith(s)), None)
+    return next((u for s, u in _SUFFIXES_LONGEST_FIRST if name.endswith(s)), None)
 
 
 def _coordinate_unit(name: str) -> str:

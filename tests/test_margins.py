@@ -44,7 +44,7 @@ def _sim_margin(problem, hs, fp):
 def test_the_naming_rule_gives_a_clearance_margin(walker):
     problem, hs, _ = walker
     key = f"swing:min_{NAME}"
-    assert hs.margin_specs[key] == CLEARANCE and CLEARANCE.kind is MarginKind.CLEARANCE
+    assert hs.margin_specs[key] == CLEARANCE
     assert hs.margin_specs["swing:min_N_foot1"] == NORMAL_FORCE
     assert hs.margin_specs["heel_strike:impulse_foot2"] == IMPULSE
     assert "heel_strike:foot1_rise_speed" not in hs.margin_specs  # a sign condition only

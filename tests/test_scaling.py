@@ -13,7 +13,6 @@ from pdw_casadi.fixed_point import find_fixed_point
 from pdw_casadi.poincare import PoincareMap
 from pdw_casadi.problem import load_problem
 from pdw_casadi.prosthesis import atlas_problem, design_prosthesis, lighter_mass
-from pdw_casadi.resources import bundled_dir
 from pdw_casadi.scaling import (
     DE_LEVA_1996,
     reference_mass,
@@ -51,7 +50,7 @@ def test_uniform_scaling_law(reference, s, m):
     pb, fp = reference
     big = scale_problem(pb, s, m)
     P, theta = _runtime_map(big)
-    x = scaled_state(fp.state, s)
+    x = scaled_state(pb, fp.state, s)
     r = P.evaluate(x, theta)
     assert np.abs(r.x_next - x).max() < 1e-9
     fps = find_fixed_point(big, x0=x, tol=1e-11, p=theta, pmap=P)
@@ -87,7 +86,6 @@ def test_de_leva_table_at_its_reference_subject():
 def test_subject_rows_from_the_bundled_file():
     row = subject_row("WBDS09")
     assert row == {"mass_kg": 61.25, "height_m": 1.691, "sex": "female"}
-    assert (bundled_dir("data") / "anthropometry" / "subjects.csv").is_file()
 
 
 def test_pdw_scale_uniform_writes_a_walking_problem(tmp_path, capsys):

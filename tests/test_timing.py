@@ -74,7 +74,7 @@ def test_point_foot_walkers_exchange_support_instantly():
     assert t.double_support_pct == ()
     assert t.foot_flat_pct is None and t.heel_off_pct is None
     assert t.toe_off_pct == pytest.approx(50.0, abs=1e-6)
-    json.dumps(t.to_dict())  # JSON-ready with its units
+    json.dumps(t.to_dict(), allow_nan=False)  # JSON-ready with its units, no NaN
 
 
 @settings(max_examples=50, deadline=None)
@@ -85,7 +85,6 @@ def test_6link_timing_algebra(t1, t2, t3):
     t = gait_timing([("I", t1), ("II", t2), ("III", t3)], 0.5, phase_contacts("humanlike_6link"))
     T = 2 * (t1 + t2 + t3)
     assert t.stance_pct == pytest.approx(100 * (T / 2 + t1 + t3) / T)
-    assert t.stance_pct + t.swing_pct == pytest.approx(100)
     assert t.double_support_pct == pytest.approx((100 * (t1 + t3) / T,) * 2)
     assert t.toe_off_pct == pytest.approx(50 + t.double_support_pct[0])
     assert t.heel_off_pct == pytest.approx(50)

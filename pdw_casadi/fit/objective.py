@@ -33,13 +33,13 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     same interpolation as :func:`pdw_casadi.curves.gait_cycle`, so the objective is the R^2
     we report as long as the bracket holds, and stays smooth when it drifts.
     """
+    names = set(nlp.output_names(nlp.specs[0].phase))
     for target in targets:
         if target not in TARGETS:
             raise CurveError(f"unknown fit target {target!r} (one of {', '.join(TARGETS)})")
         stem, column = TARGETS[target]
         if getattr(human, column) is None:
             raise CurveError(f"the gait file has no {column} column (needed for {target})")
-        names = set(nlp.output_names(nlp.specs[0].phase))
         missing = [f"{stem}{leg}_deg" for leg in (1, 2) if f"{stem}{leg}_deg" not in names]
         if missing:
             raise CurveError(f"walker {nlp.model.name!r} has no {target} outputs "

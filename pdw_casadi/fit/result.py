@@ -9,10 +9,9 @@ import numpy as np
 import pandas as pd
 
 from ..curves import cycle_curves, fit_scores, gait_cycle
-from ..errors import TimingError
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..simulate import Simulator
-from ..timing import step_timing
+from ..timing import step_timing, timing_or_none
 from .options import FitOptions
 
 
@@ -125,13 +124,8 @@ def reference_gait(problem, human) -> dict:
         return out
     curves = gait_cycle(one.trajectory, sim.hs.model.heel_strike_phase)
     out.update(fit_scores(curves, human), curves=curves, step_time_s=fp.step_time_s,
-               step_length_m=fp.step_length_m, timing=_timing(problem, one))
+               step_length_m=fp.step_length_m, timing=timing_or_none(
+                   lambda: step_timing(problem.family, one.steps[0])))
     return out
 
 
-def _timing(problem, one):
-    """The gait timing of a one-step run from a fixed point (None: the walker has none)."""
-    try:
-        return step_timing(problem.family, one.steps[0])
-    except TimingError:
-        return None
