@@ -43,8 +43,6 @@ class MapResult:
     sim: SimulationResult
     #: per phase: (duration s, d/dx, d/dp), the phases' durations with exact gradients
     phase_times: dict | None = None
-    #: per located event, in order: (phase, event name, full state there, d/dx, d/dp)
-    event_states: list | None = None
 
 
 class _Sensitivities:
@@ -137,17 +135,14 @@ class PoincareMap:
         sr = res.steps[0]
         if not jacobian:
             return MapResult(sr.x_section_end, None, None, sr.step_time, None, None, res)
-        x_end, S, dT, dT_phase, at_events = self._replay(sr.plan, x, p)
+        x_end, S, dT, dT_phase = self._replay(sr.plan, x, p)
         ns = len(x)
         durations = {}
         for ph, d in sr.phases:
             durations[ph] = durations.get(ph, 0.0) + d
         phase_times = {ph: (durations[ph], g[:ns], g[ns:]) for ph, g in dT_phase.items()}
-        names = self.hs.event_list
-        event_states = [(ph, names[ph][i].name, xe, Se[:, :ns], Se[:, ns:])
-                        for ph, i, xe, Se in at_events if i >= 0]
         return MapResult(x_end, S[:, :ns], S[:, ns:], sr.step_time, dT[:ns], dT[ns:], res,
-                         phase_times, event_states)
+                         phase_times)
 
     def _replay(self, plan, xs, p):
         """Re-run the discrete map of ``plan`` with forward sensitivities (exact AD)."""
@@ -157,19 +152,17 @@ class PoincareMap:
         x = x.ravel()
         dT = np.zeros(nz)
         dT_phase: dict[str, np.ndarray] = {}
-        at_events = []
         for item in plan.items:
             if isinstance(item, Segment):
                 before = dT
                 x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
                 dT_phase[item.phase] = dT_phase.get(item.phase, 0.0) + (dT - before)
-                at_events.append((item.phase, item.event, x, S))
             else:  # a TransitionItem
                 xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
         J_out = np.asarray(sens.section_out(x))
-        return hs.full_to_section.np(x).ravel(), J_out @ S, dT, dT_phase, at_events
+        return hs.full_to_section.np(x).ravel(), J_out @ S, dT, dT_phase
 
     def _segment(self, seg: Segment, x, S, dT, p, sens, nx, nz):
         mv = list(seg.mode)

@@ -20,11 +20,8 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
 from .design import (
     DesignOptions,
-    PatternLost,
     combined,
     continue_design,
     phase_time_conditions,
@@ -138,46 +135,6 @@ def lighter_mass(problem: Problem, side: str = "right") -> float:
     other = "left" if side == "right" else "right"
     a, b = problem.leg_values(side)[1], problem.leg_values(other)[1]
     return float((a["m_s"] + a["m_f"]) / (b["m_s"] + b["m_f"]))
-
-
-
-def knee_release_conditions(smap, target_rad: float, scale_rad: float = 0.01):
-    """Extra conditions keeping the stance knee's spring release clear of grazing.
-
-    The stance knee disengages when its flexion falls through theta_dis while extending
-    (docs/model.md) and goes on extending a little until its rate changes sign (event
-    ``knee1_rate``). At the paper's gait that overshoot is only ~0.04 deg: a small change of
-    the body or compliance makes the flexion turn *above* theta_dis, the spring never
-    releases and the gait breaks (the centre of pressure runs to the toe). This holds the
-    overshoot theta_dis - theta_knee(at knee1_rate) at ``target_rad`` in both steps,
-    normalised by ``scale_rad``, with exact derivatives (the state at the located event
-    and its sensitivity, chained through the stride).
-    """
-    names = list(smap.hs.model.parameter_names)
-    i_dis = names.index("theta_dis@1")
-
-    def overshoot(r):
-        seen = False
-        for _ph, name, xe, dx, dp in r.event_states:
-            seen = seen or name == "knee1_disengage"
-            if seen and name == "knee1_rate":
-                # theta_1 = q2 - q1 (coordinates 1 and 0 of the full state)
-                return xe[1] - xe[0], dx[1] - dx[0], dp[1] - dp[0]
-        raise PatternLost("the stance knee spring did not release in the step")
-
-    def extra(r, x, theta):
-        r1, r2 = r.steps
-        p1, p2 = r.step_parameters
-        th1, g1x, g1p = overshoot(r1)
-        th2, g2x, g2p = overshoot(r2)
-        e = np.zeros(p1.size)
-        e[i_dis] = 1.0
-        v = np.array([p1[i_dis] - th1 - target_rad, p2[i_dis] - th2 - target_rad]) / scale_rad
-        vx = np.vstack([-g1x, -(g2x @ r1.dx)]) / scale_rad
-        vt = np.vstack([e - g1p, (e - g2p) @ smap.Pi2 - g2x @ r1.dp]) / scale_rad
-        return v, vx, vt
-
-    return extra
 
 
 #: the stable gait of the bundled atlas the prosthesis examples start from (rho 0.83)
