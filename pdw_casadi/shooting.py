@@ -25,6 +25,15 @@ the full states at every shooting node. Constraints (all exact, no smoothing):
 
 Knee-spring engagement happens at its equilibrium angle by construction (the segment ends on
 the event theta = theta_eq), so engagement stores no energy (passivity).
+
+**Strides** (``step_perms``): a walker whose legs differ repeats every two steps. With one
+parameter permutation per step the NLP transcribes that many steps in a row: the
+parameter vector is then theta (each physical leg's values, :mod:`pdw_casadi.stride`), step
+i's segments use p_i = theta[perm_i], and step i + 1 starts from its own section state
+xs_(i+1) (an unknown, appended to ``w``): full_to_section(foot-strike impact(X_end of step
+i), p_i) = xs_(i+1) and X_start of step i + 1 = section_to_full(xs_(i+1), p_(i+1)), the
+composition of :class:`~pdw_casadi.stride.StrideMap`; periodicity closes the last step on
+xs. :meth:`ShootingNLP.stride` builds it for a problem's per-leg walker.
 """
 
 from __future__ import annotations
@@ -64,6 +73,7 @@ class SegmentSpec:
     start: dict[int, int] = field(default_factory=dict)  # event index -> first sample checked
     cross_sign: float = 0.0  # direction of the ending event's crossing in the starting gait
     cross_rate0: float = 0.0  # its rate dg/dt there
+    step: int = 0  # the step (of a stride) the segment belongs to
 
 
 def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
@@ -96,11 +106,16 @@ class ShootingNLP:
     ``free`` selects which parameters are unknowns (names of the problem's parameter
     vector); the others are fixed at ``p0``. ``objective(self) -> MX`` may be set by the
     caller (the curve fit); by default the NLP is a pure feasibility problem.
+
+    ``step_perms`` (strides, see the module docstring): one index array per step, step i
+    using ``p[perm_i]``; None: one step with ``p``. ``param_names``: the names of ``p0``
+    (default the problem's parameter vector).
     """
 
     def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
                  sample_stride: int = 1, hs: HybridSystem | None = None,
-                 transversality: float = 0.5, headroom_s: float = 0.0):
+                 transversality: float = 0.5, headroom_s: float = 0.0,
+                 step_perms=None, param_names=None):
         self.problem = problem
         self.sim = Simulator(problem, hs)
         self.hs = hs = self.sim.hs
@@ -111,17 +126,50 @@ class ShootingNLP:
         self.transversality = transversality
         self._gdot_cache: dict[str, ca.Function] = {}
         self.p0 = np.asarray(p0, float).ravel()
+        #: per step, the indices of theta forming its parameter vector (None: p itself)
+        self.step_perms = [None] if step_perms is None else [np.asarray(i, int)
+                                                              for i in step_perms]
+        self.n_steps = len(self.step_perms)
+        self.p0_steps = [self.p0 if i is None else self.p0[i] for i in self.step_perms]
         x0 = np.asarray(x0, float).ravel()
-        run = self.sim.run(x0, self.p0, steps=1, record=False)
-        if run.failure is not None or run.completed_steps < 1:
+        run = self.sim.run(x0, self.p0, steps=self.n_steps, record=False,
+                           p_steps=self.p0_steps)
+        if run.failure is not None or run.completed_steps < self.n_steps:
             raise ValueError(f"the starting gait fails: {run.failure}")
-        self.specs = segments_from_plan(hs, run.steps[0].plan, self.h, n_sub, headroom_s)
-        self.param_names = list(problem.parameter_names)
+        self.specs = []
+        for i in range(self.n_steps):
+            for spec in segments_from_plan(hs, run.steps[i].plan, self.h, n_sub, headroom_s):
+                spec.step = i
+                self.specs.append(spec)
+        self.param_names = list(problem.parameter_names if param_names is None
+                                else param_names)
+        if len(self.param_names) != self.p0.size:
+            raise ValueError(f"p0 has {self.p0.size} values for {len(self.param_names)} "
+                             f"parameter names")
         self.free = [n for n in self.param_names if n in free]
         self._build()
         self.w0 = self._initial_guess(x0)
         self._signs_from_guess()
         self._build_constraints()
+
+    @classmethod
+    def stride(cls, problem, x0, theta0=None, free: tuple[str, ...] = (), **kw):
+        """The two-step (stride) NLP of ``problem``'s per-leg walker
+        (:func:`~pdw_casadi.stride.per_leg_system`): parameters theta in the order of
+        :func:`~pdw_casadi.stride.physical_parameter_names` (``free`` names from there, e.g.
+        ``right.k_ankle``), step 1 with the left leg in stance, step 2 with the right, from
+        section state ``x0`` (SI units)."""
+        from .stride import StrideMap
+
+        smap = StrideMap(problem)
+        if not smap.per_leg:
+            raise ValueError(f"{problem.family}: no per-leg walker for a stride NLP")
+        theta0 = smap.default_parameters() if theta0 is None else theta0
+        nlp = cls(problem, x0, theta0, free=free, hs=smap.hs,
+                  step_perms=[np.arange(len(smap.parameter_names)), smap.perm],
+                  param_names=smap.parameter_names, **kw)
+        nlp.stride_map = smap
+        return nlp
 
     # -- variables -------------------------------------------------------------------------
     def _build(self):
@@ -141,9 +189,15 @@ class ShootingNLP:
             else:
                 parts.append(ca.MX(v))
         self.p = ca.vertcat(*parts)
+        # each step's parameter vector; the symmetric step uses p itself (same graph)
+        self.p_steps = [self.p if i is None else self.p[list(i)] for i in self.step_perms]
+        self.p_seg = [self.p_steps[s.step] for s in self.specs]
         self.T = ca.MX.sym("T", len(self.specs))
         self.X = [ca.MX.sym(f"X{k}", nx, s.n_int + 1) for k, s in enumerate(self.specs)]
-        self.w = ca.vertcat(self.xs, self.pf, self.T, *[ca.vec(X) for X in self.X])
+        # the section states at which steps 2.. start (none for one step)
+        self.xs_steps = [self.xs, *[ca.MX.sym(f"xs{i}", ns) for i in range(1, self.n_steps)]]
+        self.w = ca.vertcat(self.xs, self.pf, self.T, *[ca.vec(X) for X in self.X],
+                            *self.xs_steps[1:])
         # the RK4 states and outputs inside every interval, in time order
         self.samples: list[ca.MX] = []  # nx x (N M) per segment
         self.Y: list[ca.MX] = []  # ny x (N M): phase outputs, then event functions
@@ -156,13 +210,21 @@ class ShootingNLP:
             self.h_k.append(hk)
             self.t_start.append(t0)
             F = self._interval(s.phase, s.n_sub).map(s.n_int)
-            Xall, Yall = F(self.X[k][:, :-1], self.p, ca.DM(s.mode), hk)
+            Xall, Yall = F(self.X[k][:, :-1], self.p_seg[k], ca.DM(s.mode), hk)
             self.samples.append(Xall)
             self.Y.append(Yall)
             idx = np.arange(1, s.n_int * s.n_sub + 1)
             self.sample_t.append(t0 + hk * ca.DM(idx).T)
             t0 = t0 + self.T[k]
-        self.step_time = t0
+        self.step_time = t0  # of the whole NLP (a stride: both steps), s
+        #: per step: its time (s) and its length (m, the walker's step_length just before
+        #: the step's foot strike, as the simulator reports it)
+        self.step_times, self.step_lengths = [], []
+        for i in range(self.n_steps):
+            ks = [k for k, s in enumerate(self.specs) if s.step == i]
+            self.step_times.append(ca.sum1(self.T[ks[0]: ks[-1] + 1]))
+            self.step_lengths.append(self.hs.step_length.fun(self.X[ks[-1]][:, -1],
+                                                             self.p_steps[i]))
 
     def _interval(self, phase: str, n_sub: int):
         """M RK4 steps: (x, p, m, h) -> (states, outputs+events) at the M sample instants."""
@@ -179,11 +241,11 @@ class ShootingNLP:
     # -- initial guess -----------------------------------------------------------------------
     def _initial_guess(self, x0) -> np.ndarray:
         """Nodes from a forward pass of the NLP's own integrator over the plan's durations."""
-        hs = self.hs
-        p = self.p0
-        x = self.model.section_to_full(x0, p).full().ravel()
-        Xs = []
-        for s in self.specs:
+        hs, model = self.hs, self.model
+        x = model.section_to_full(x0, self.p0_steps[0]).full().ravel()
+        Xs, xs_next = [], []
+        for k, s in enumerate(self.specs):
+            p = self.p0_steps[s.step]
             h = s.duration0 / (s.n_int * s.n_sub)
             F = self._interval(s.phase, s.n_sub)
             cols = [x]
@@ -193,10 +255,14 @@ class ShootingNLP:
             Xs.append(np.column_stack(cols))
             if s.transition is not None:
                 x = hs.impact_at(s.transition, x, p).x_plus
+            if k + 1 < len(self.specs) and self.specs[k + 1].step != s.step:
+                xs_next.append(model.full_to_section(x).full().ravel())
+                x = model.section_to_full(xs_next[-1],
+                                          self.p0_steps[self.specs[k + 1].step]).full().ravel()
         pf = [self.p0[self.param_names.index(n)] / sc for n, sc in zip(self.free, self.p_scale,
                                                                           strict=True)]
         T = [s.duration0 for s in self.specs]
-        return np.concatenate([x0, pf, T, *[X.ravel(order="F") for X in Xs]])
+        return np.concatenate([x0, pf, T, *[X.ravel(order="F") for X in Xs], *xs_next])
 
     def _signs_from_guess(self):
         """Required sign (and margin) of every enabled event inside each segment, from the guess.
@@ -216,7 +282,7 @@ class ShootingNLP:
             names = self.output_names(s.phase)
             g = Y.full()[len(names) - len(hs.event_list[s.phase]):, :]
             mode = dict(zip(hs.mode_keys, s.mode, strict=True))
-            rate = float(self._gdot(s.phase)(xe, self.p0, s.mode)[s.event])
+            rate = float(self._gdot(s.phase)(xe, self.p0_steps[s.step], s.mode)[s.event])
             s.cross_sign, s.cross_rate0 = float(np.sign(rate)), rate
             for i, ev in enumerate(hs.event_list[s.phase]):
                 if not ev.enabled(mode):
@@ -236,7 +302,7 @@ class ShootingNLP:
 
     # -- constraints -------------------------------------------------------------------------
     def _build_constraints(self):
-        hs, model, p = self.hs, self.model, self.p
+        hs, model = self.hs, self.model
         v = self.problem.validity
         g, lb, ub, names = [], [], [], []
 
@@ -247,14 +313,15 @@ class ShootingNLP:
             ub.append(np.full(expr.shape[0], hi))
             names.extend([name] * expr.shape[0])
 
-        add(self.X[0][:, 0] - model.section_to_full(self.xs, p), 0, 0, "section")
-        phase_start: dict[str, ca.MX] = {}
-        phase_len: dict[str, ca.MX] = {}
+        add(self.X[0][:, 0] - model.section_to_full(self.xs, self.p_seg[0]), 0, 0, "section")
+        phase_start: dict[tuple, ca.MX] = {}
+        phase_len: dict[tuple, ca.MX] = {}
         for k, s in enumerate(self.specs):
-            phase_start.setdefault(s.phase, self.t_start[k])
-            phase_len[s.phase] = phase_len.get(s.phase, 0) + self.T[k]
+            key = (s.step, s.phase)
+            phase_start.setdefault(key, self.t_start[k])
+            phase_len[key] = phase_len.get(key, 0) + self.T[k]
         for k, s in enumerate(self.specs):
-            X, S, Y = self.X[k], self.samples[k], self.Y[k]
+            X, S, Y, p = self.X[k], self.samples[k], self.Y[k], self.p_seg[k]
             M = s.n_sub
             add(X[:, 1:] - S[:, M - 1::M], 0, 0, f"continuity[{k}]")
             onames = self.output_names(s.phase)
@@ -295,7 +362,8 @@ class ShootingNLP:
                 # a margin that counts late in its phase (a swing foot's clearance) is not
                 # demanded at the start node: the foot leaves the ground there (height 0 by
                 # the previous phase's contact), and a pinned row only degrades the KKT
-                demand = spec.demand(ts[cols] - phase_start[s.phase], phase_len[s.phase], need)
+                key = (s.step, s.phase)
+                demand = spec.demand(ts[cols] - phase_start[key], phase_len[key], need)
                 add(Y[j, cols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
@@ -303,10 +371,17 @@ class ShootingNLP:
                 x_plus, chk = imp.x_plus, imp.checks
                 if chk.shape[0]:
                     add(chk, 1e-9, ca.inf, f"impact_check[{s.transition}]")
-                if k + 1 < len(self.specs):
-                    add(self.X[k + 1][:, 0] - x_plus, 0, 0, f"impact[{s.transition}]")
-                else:
+                if k + 1 == len(self.specs):
                     add(model.full_to_section(x_plus) - self.xs, 0, 0, "periodicity")
+                elif self.specs[k + 1].step == s.step:
+                    add(self.X[k + 1][:, 0] - x_plus, 0, 0, f"impact[{s.transition}]")
+                else:  # the next step starts on its own section state (leg roles swapped)
+                    i = self.specs[k + 1].step
+                    add(model.full_to_section(x_plus) - self.xs_steps[i], 0, 0,
+                        f"step_link[{i}]")
+                    add(self.X[k + 1][:, 0] - model.section_to_full(self.xs_steps[i],
+                                                                    self.p_seg[k + 1]),
+                        0, 0, f"section[{i}]")
             else:
                 add(self.X[k + 1][:, 0] - xe, 0, 0, f"switch[{k}]")
         self.g = ca.vertcat(*g)
@@ -346,7 +421,9 @@ class ShootingNLP:
         ns = self.xs.shape[0]
         cb = self.problem.compliance_bounds
         for j, name in enumerate(self.free):
-            b = slope_bounds if name == "slope" else cb.get(name, (-np.inf, np.inf))
+            # a stride's per-leg names (right.k_ankle) take the problem's bounds of k_ankle
+            key = name.rsplit(".", 1)[-1]
+            b = slope_bounds if name == "slope" else cb.get(key, (-np.inf, np.inf))
             lo[ns + j], hi[ns + j] = np.asarray(b, float) / self.p_scale[j]
         o = ns + len(self.free)
         for k, s in enumerate(self.specs):
@@ -355,11 +432,15 @@ class ShootingNLP:
         return lo, hi
 
     def unpack(self, w) -> dict:
-        """The section state, full parameter vector and durations of a solution vector."""
+        """The section state, full parameter vector and durations of a solution vector
+        (strides: ``xs_steps``, the section state at the start of every step)."""
         w = np.asarray(w, float).ravel()
         ns = self.xs.shape[0]
         nf = len(self.free)
         p = self.p0.copy()
         for j, name in enumerate(self.free):
             p[self.param_names.index(name)] = w[ns + j] * self.p_scale[j]
-        return {"xs": w[:ns], "p": p, "T": w[ns + nf: ns + nf + len(self.specs)]}
+        n_extra = ns * (self.n_steps - 1)
+        extra = w[w.size - n_extra:] if n_extra else np.zeros(0)
+        return {"xs": w[:ns], "p": p, "T": w[ns + nf: ns + nf + len(self.specs)],
+                "xs_steps": [w[:ns], *extra.reshape(-1, ns)]}

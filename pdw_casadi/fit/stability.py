@@ -13,6 +13,15 @@ Its Jacobian J = dP/dxs (ns x ns) is therefore the chain, evaluated at the NLP's
     R <- D R                       across an impact (D = d impact / dx)
     J  = d section / dx . D_last R
 
+A stride NLP (two steps, ``step_perms``) runs the chain through both steps' segments, each
+with its step's parameters p_i = theta[perm_i]; between the steps the section projection
+
+    R <- E(xs_2, p_2) . d section / dx . D R   (E = d section_to_full / d xs)
+
+where xs_2 is the NLP's own unknown section state of step 2, so J = J_2 J_1 is the stride's
+Jacobian and the parameter adjoints of both steps are gathered into theta (theta_bar[perm_i]
++= p_bar_i).
+
 At a feasible point this is the exact derivative of the NLP's discrete map (the implicit
 function of its continuity and event rows), so at the answer it is the re-simulated step's
 Jacobian to the integrator's accuracy. The row is rho_q(J) = (sum |lambda_i|^q)^(1/q) >=
@@ -208,14 +217,24 @@ class StabilityRow:
         self.nx, self.ns = hs.nx, nlp.xs.shape[0]
         self.nf = len(nlp.free)
         self.free_idx = [nlp.param_names.index(n) for n in nlp.free]
-        # layout of w: xs, pf, T, then vec(X_k) column-major per segment
+        # layout of w: xs, pf, T, then vec(X_k) column-major per segment, then the section
+        # states of steps 2.. (strides)
         self.o_T = self.ns + self.nf
         self.o_X = []
         o = self.o_T + len(nlp.specs)
         for s in nlp.specs:
             self.o_X.append(o)
             o += self.nx * (s.n_int + 1)
+        self.perms = nlp.step_perms
+        self.o_xs = [0]
+        for _ in range(1, len(self.perms)):
+            self.o_xs.append(o)
+            o += self.ns
         self.n = o
+        specs = nlp.specs
+        # segments after which the next step starts (the section projection, not the last)
+        self.step_end = [k + 1 < len(specs) and specs[k + 1].step != s.step
+                         for k, s in enumerate(specs)]
         self.sel = []
         for s in nlp.specs:
             e = np.zeros(len(hs.event_list[s.phase]))
@@ -226,22 +245,24 @@ class StabilityRow:
     # -- helpers ----------------------------------------------------------------------------
     def _unpack(self, w):
         w = np.asarray(w, float).ravel()
-        xs = w[: self.ns]
+        xs = [w[o: o + self.ns] for o in self.o_xs]
         p = self.nlp.p0.copy()
         p[self.free_idx] = w[self.ns: self.o_T] * self.nlp.p_scale
+        ps = [p if i is None else p[i] for i in self.perms]  # each step's parameters
         T = w[self.o_T: self.o_T + len(self.nlp.specs)]
         X = [w[o: o + self.nx * (s.n_int + 1)].reshape((self.nx, s.n_int + 1), order="F")
              for o, s in zip(self.o_X, self.nlp.specs, strict=True)]
-        return xs, p, T, X
+        return xs, ps, T, X
 
     def _forward(self, w):
         """One forward sweep: J and the stored inputs of every block."""
         b, nx, ns = self.blocks, self.nx, self.ns
-        xs, p, T, X = self._unpack(w)
-        R = b.section[0](xs, p).reshape((nx, ns), order="F")
+        xs, ps, T, X = self._unpack(w)
+        R = b.section[0](xs[0], ps[0]).reshape((nx, ns), order="F")
         tape = []
         J = None
         for k, s in enumerate(self.nlp.specs):
+            p = ps[s.step]
             mode = np.asarray(s.mode, float)
             c = 1.0 / (s.n_int * s.n_sub)
             h = T[k] * c
@@ -259,17 +280,26 @@ class StabilityRow:
             R = b.project[s.phase][0](xe, p, mode, self.sel[k], Z.ravel(order="F")).reshape(
                 (nx, ns), order="F")
             Rproj = R
+            link = None
             if s.transition is not None:
                 if k == len(self.nlp.specs) - 1:
                     J = b.last[s.transition][0](xe, p, R.ravel(order="F")).reshape(
                         (ns, ns), order="F")
+                elif self.step_end[k]:
+                    # this step's section Jacobian, then into the next step's full state
+                    Js = b.last[s.transition][0](xe, p, R.ravel(order="F")).reshape(
+                        (ns, ns), order="F")
+                    i = self.nlp.specs[k + 1].step
+                    E = b.section[0](xs[i], ps[i]).reshape((nx, ns), order="F")
+                    R = E @ Js
+                    link = (Js, E)
                 else:
                     R = b.impact[s.transition][0](xe, p, R.ravel(order="F")).reshape(
                         (nx, ns), order="F")
-            tape.append((zs, h, c, mode, xe, Zend, Rproj))
+            tape.append((zs, h, c, mode, xe, Zend, Rproj, link))
         if J is None:
             raise ValueError("the NLP's last segment must end in the section transition")
-        return J, (xs, p, T, X, tape)
+        return J, (xs, ps, T, X, tape)
 
     def _eval(self, w):
         w = np.asarray(w, float).ravel()
@@ -307,21 +337,30 @@ class StabilityRow:
         res = self._eval(w)
         if res is None:
             return np.full(self.n, np.nan)
-        J, (xs, p, T, X, tape) = res
+        J, (xs, ps, T, X, tape) = res
         _, Jbar = self._bound(J)
         b, nx, ns = self.blocks, self.nx, self.ns
         g = np.zeros(self.n)
-        pbar = np.zeros(p.size)
+        pbars = [np.zeros(p.size) for p in ps]  # per step, d rho / d p_i
         specs = self.nlp.specs
         Rbar = None
         for k in range(len(specs) - 1, -1, -1):
             s = specs[k]
-            zs, h, c, mode, xe, Zend, Rproj = tape[k]
+            p, pbar = ps[s.step], pbars[s.step]
+            zs, h, c, mode, xe, Zend, Rproj, link = tape[k]
             o = self.o_X[k]
             xe_sl = slice(o + nx * s.n_int, o + nx * (s.n_int + 1))
             if k == len(specs) - 1:
                 adj = b.last[s.transition][1]
                 xb, pb, Rb = adj(xe, p, Rproj.ravel(order="F"), Jbar.ravel(order="F"))
+            elif link is not None:  # R_next = E(xs_i, p_i) Js
+                Js, E = link
+                i = specs[k + 1].step
+                xsb, pb = b.section[1](xs[i], ps[i], (Rbar @ Js.T).ravel(order="F"))
+                g[self.o_xs[i]: self.o_xs[i] + ns] += np.ravel(xsb)
+                pbars[i] += np.ravel(pb)
+                adj = b.last[s.transition][1]
+                xb, pb, Rb = adj(xe, p, Rproj.ravel(order="F"), (E.T @ Rbar).ravel(order="F"))
             elif s.transition is not None:
                 adj = b.impact[s.transition][1]
                 xb, pb, Rb = adj(xe, p, Rproj.ravel(order="F"), Rbar.ravel(order="F"))
@@ -346,8 +385,14 @@ class StabilityRow:
                 pbar += np.ravel(pb)
             Rbar = Zb.reshape((nx, ns + 1), order="F")[:, :ns]
         adj = b.section[1]
-        xsb, pb = adj(xs, p, Rbar.ravel(order="F"))
+        xsb, pb = adj(xs[0], ps[0], Rbar.ravel(order="F"))
         g[: self.ns] += np.ravel(xsb)
-        pbar += np.ravel(pb)
-        g[self.ns: self.o_T] += pbar[self.free_idx] * self.nlp.p_scale
+        pbars[0] += np.ravel(pb)
+        if len(self.perms) == 1 and self.perms[0] is None:
+            theta_bar = pbars[0]
+        else:  # p_i = theta[perm_i]: gather each step's adjoint back into theta
+            theta_bar = np.zeros(self.nlp.p0.size)
+            for perm, pb in zip(self.perms, pbars, strict=True):
+                np.add.at(theta_bar, perm, pb)
+        g[self.ns: self.o_T] += theta_bar[self.free_idx] * self.nlp.p_scale
         return g

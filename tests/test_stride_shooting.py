@@ -1,0 +1,159 @@
+"""The stride (two-step) multiple-shooting NLP of a per-leg walker and its stability row:
+at equal legs it is the one-step NLP twice; its stability row is the stride map's Jacobian
+with an exact gradient."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from pdw_casadi.fit import StabilityRow
+from pdw_casadi.prosthesis import atlas_problem, prosthetic_problem
+from pdw_casadi.shooting import ShootingNLP
+from pdw_casadi.stride import StrideMap, find_stride_fixed_point
+
+
+@pytest.fixture(scope="module")
+def base():
+    return atlas_problem()
+
+
+def test_stride_nlp_at_equal_legs_is_the_one_step_nlp_twice(base):
+    """Every constraint of the stride NLP at a point made of a (perturbed) one-step NLP point
+    repeated twice equals the one-step NLP's row there: step 1's rows, step 2's rows, the
+    link between the steps equal to the one-step periodicity row, to 1e-10. The stride runs
+    on the per-leg walker (other compiled functions), so this checks the per-leg parameters,
+    the role permutation and the node layout."""
+    one = ShootingNLP(base, base.state_vector(), base.parameter_vector())
+    smap = StrideMap(base)
+    stride = ShootingNLP.stride(base, base.state_vector(), smap.default_parameters())
+    n1 = len(one.specs)
+    assert [(s.phase, s.event, s.n_int, s.step) for s in stride.specs] == [
+        (s.phase, s.event, s.n_int, i) for i in (0, 1) for s in one.specs]
+    rng = np.random.default_rng(5)
+    w1 = one.w0 * (1 + 1e-4 * rng.standard_normal(one.w0.size))
+    ns = one.xs.shape[0]
+    xs, T, X = w1[:ns], w1[ns: ns + n1], w1[ns + n1:]
+    w2 = np.r_[xs, T, T, X, X, xs]
+    g1 = ca.Function("g1", [one.w], [one.g])(w1).full().ravel()
+    g2 = ca.Function("g2", [stride.w], [stride.g])(w2).full().ravel()
+    names1, names2 = np.array(one.g_names), np.array(stride.g_names)
+    # the one-step rows in order, with its periodicity row standing for the step link
+    assert names1[0] == "section" and names1[-len(base.initial_state):][0] == "periodicity"
+    half = np.flatnonzero(names2 == "step_link[1]")
+    sec2 = np.flatnonzero(names2 == "section[1]")
+    assert half.size == ns and sec2.size == one.hs.nx
+    step1 = g2[: half[0]]
+    step2 = g2[sec2[-1] + 1:]
+    per = np.flatnonzero(names1 == "periodicity")
+    assert np.abs(step1 - g1[: per[0]]).max() < 1e-10
+    assert np.abs(g2[half] - g1[per]).max() < 1e-10
+    assert np.abs(g2[sec2] - g1[: sec2.size]).max() < 1e-10  # step 2 starts on its section
+    assert np.abs(step2 - g1[sec2.size:]).max() < 1e-10
+    assert np.abs(g1[per]).max() > 1e-6  # the comparison is of non-trivial residuals
+    # the same bounds (the event margins come from each step's own starting guess)
+    np.testing.assert_allclose(stride.lbg, np.r_[one.lbg[: per[0]], np.zeros(ns),
+                                                 np.zeros(sec2.size), one.lbg[sec2.size:]],
+                               rtol=1e-6, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def asymmetric(base):
+    """A walker whose right shank and foot are 0.01 % lighter, its stride fixed point and
+    the stride NLP there (two compliance values free)."""
+    pb = prosthetic_problem(base, 1e-4)
+    smap = StrideMap(pb)
+    fp = find_stride_fixed_point(pb, x0=find_stride_fixed_point(base).state, tol=1e-12,
+                                 smap=smap, fallback=False)
+    assert fp.converged
+    nlp = ShootingNLP.stride(pb, fp.state, fp.parameters,
+                             free=("right.k_ankle", "right.c_knee_ext"))
+    return pb, smap, fp, nlp
+
+
+def test_stride_stability_row_is_the_stride_map_jacobian(asymmetric):
+    """At the stride NLP's starting gait (the simulator's fixed point, feasible to 1e-6),
+    the row's chain over both steps is the stride map's exact-AD Jacobian dS/dx
+    (StrideMap.evaluate) to 1e-5 relative, and its value is rho_32 of those eigenvalues."""
+    from pdw_casadi.fit import RADIUS_NORM
+
+    pb, smap, fp, nlp = asymmetric
+    bad = [(n, v) for n, v in nlp.violations(nlp.w0) if v > 1e-6]
+    assert not bad, bad[:5]
+    row = StabilityRow(nlp)
+    J = row.poincare_jacobian(nlp.w0)
+    ref = smap.evaluate(fp.state, fp.parameters).dx
+    assert np.abs(J - ref).max() < 1e-5 * np.abs(ref).max()
+    lam = np.linalg.eigvals(ref)
+    bound = float(np.sum(np.abs(lam) ** RADIUS_NORM) ** (1 / RADIUS_NORM))
+    assert abs(row.value(nlp.w0) - bound) < 1e-4
+
+
+def test_stride_stability_row_gradient_matches_finite_differences(asymmetric):
+    """Off the orbit, the row's reverse-mode gradient over both steps (nodes, durations,
+    both section states, the free parameters through both steps' role vectors) matches
+    Richardson central differences of the row itself, block by block, to 1e-6 relative."""
+    *_, nlp = asymmetric
+    row = StabilityRow(nlp)
+    rng = np.random.default_rng(7)
+    w = nlp.w0 * (1 + 1e-6 * rng.standard_normal(nlp.w0.size))
+    g = row.gradient(w)
+    ns, nf = nlp.xs.shape[0], len(nlp.free)
+    o_T, o_X = ns + nf, row.o_X[0]
+    blocks = {"xs": slice(0, ns), "free": slice(ns, o_T), "T": slice(o_T, o_X),
+              "nodes": slice(o_X, row.o_xs[1]), "xs2": slice(row.o_xs[1], row.n)}
+
+    def central(v, eps):
+        return (row.value(w + eps * v) - row.value(w - eps * v)) / (2 * eps)
+
+    for name, sl in blocks.items():
+        v = np.zeros(w.size)
+        v[sl] = rng.standard_normal(sl.stop - sl.start)
+        v /= np.linalg.norm(v)
+        eps = 1e-7
+        fd = (4 * central(v, eps) - central(v, 2 * eps)) / 3
+        assert abs(g @ v - fd) < 1e-6 * max(abs(fd), 1.0), (name, g @ v, fd)
+
+
+def _design_checks(base, res, lighter):
+    """The designed gait re-simulated on the stride map: stable (stride radius <= 0.81),
+    valid, both asymmetries below 1 %, the right leg lighter by ``lighter``."""
+    from pdw_casadi.prosthesis import lighter_mass
+
+    fp, rep = res.fixed_point, res.report
+    assert res.reached and fp.converged and fp.valid
+    assert fp.spectral_radius <= 0.81
+    assert abs(rep["step_length_asymmetry_pct"]) < 1.0
+    assert abs(rep["step_time_asymmetry_pct"]) < 1.0
+    assert abs(lighter_mass(res.problem) - (1 - lighter)) < 1e-12
+
+
+def test_design_nlp_makes_a_slightly_lighter_leg_symmetric_and_stable(base):
+    """0.3 % lighter right shank and foot, one NLP solve: at the sound leg's compliance that
+    walker's stride radius is above 0.81 (these gaits are that sensitive to the shank mass);
+    the designed compliance brings it to <= 0.81 with equal steps (re-simulated), and the
+    NLP's own stability bound rho_32 bounds the simulator's radius from above, within the
+    bound's own slack (n^(1/32), n = 7 eigenvalues)."""
+    from pdw_casadi.prosthesis import DesignNLPOptions, design_prosthesis_nlp
+
+    lighter = 0.003
+    x = find_stride_fixed_point(base).state
+    plain = prosthetic_problem(base, lighter)
+    fp_plain = find_stride_fixed_point(plain, x0=x, fallback=False)
+    assert fp_plain.converged and fp_plain.spectral_radius > 0.81
+    res = design_prosthesis_nlp(base, x0=x, lighter=lighter,
+                                options=DesignNLPOptions(first_step=lighter), log=None)
+    _design_checks(base, res, lighter)
+    assert len(res.solves) == 1
+    rho, bound = res.fixed_point.spectral_radius, res.solves[0].nlp_radius
+    assert rho <= bound + 1e-6 and bound <= rho * 7 ** (1 / 32) + 1e-6
+
+
+@pytest.mark.slow
+def test_design_nlp_ten_percent_lighter(base):
+    """10 % lighter by the mass homotopy: stable, valid and symmetric on re-simulation."""
+    from pdw_casadi.prosthesis import design_prosthesis_nlp
+
+    res = design_prosthesis_nlp(base, lighter=0.1, log=None)
+    _design_checks(base, res, 0.1)
