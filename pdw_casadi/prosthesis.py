@@ -11,6 +11,19 @@ symmetry conditions and the least relative change of the free compliance
 
 Stability is read from the stride map: its spectral radius rho_S is the product of two
 steps, so sqrt(rho_S) is the per-step radius comparable with a symmetric walker's rho.
+
+:func:`design_prosthesis_nlp` poses the design as one IPOPT NLP instead (the fit's
+machinery on the stride, :meth:`pdw_casadi.shooting.ShootingNLP.stride`): unknowns the
+stride's shooting nodes and the prosthetic leg's free compliance; constraints the
+shooting rows (continuity, events, validity margins), equal left and right step lengths and
+step times (from the NLP's own geometry and durations) and the stride's stability row
+rho_32(J_2 J_1) <= ``max_stride_radius`` - ``radius_margin``
+(:mod:`pdw_casadi.fit.stability`); objective the least relative change of the prosthetic
+leg's compliance from the sound leg's, sum ((c_prosthetic - c_sound) / c_sound)^2
+(relative changes, not log ratios: a damper's lower bound is 0). The mass reduction is
+reached in ``mass_steps`` homotopy steps, each warm-started from the last, and every answer
+is checked by re-simulation on the stride map (fixed point, spectral radius, validity,
+asymmetry).
 """
 
 from __future__ import annotations
@@ -18,7 +31,10 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
 
 from .design import (
     DesignOptions,
@@ -70,6 +86,8 @@ class ProsthesisResult:
     path: list
     reached: bool
     wall_time_s: float
+    #: the NLP design's solves, one per homotopy step (:class:`DesignSolve`)
+    solves: list = field(default_factory=list)
 
     @property
     def step_radius(self) -> float:
@@ -156,3 +174,215 @@ def atlas_problem(label: str = START_ENTRY) -> Problem:
                            f"{', '.join(e['label'] for e in atlas['entries'])}")
     return load_problem(atlas["problem"]).with_parameters(entry["parameters"]).with_state(
         entry["state"])
+
+
+@dataclass
+class DesignNLPOptions:
+    """Settings of :func:`design_prosthesis_nlp`.
+
+    Homotopy in the mass reduction, each NLP warm-started from the last answer: the first
+    step is ``first_step`` (a fraction of the mass), a solved step doubles the next (at most
+    ``max_step``), a failed one is retried at half the size (down to ``min_step``), at most
+    ``max_solves`` NLP solves; ``first_step`` >= ``lighter`` solves the target directly.
+    Measured from the bundled atlas gait (``scripts/prosthesis_design.py``): the gaits there
+    are so sensitive to the shank mass (a 0.1 % lighter leg raises the stride radius
+    from 0.69 to 1.05 at the sound compliance) that a 10 % first step does not converge in
+    300 iterations, a 0.3 % one in 12. ``symmetry_tol_pct``: the largest accepted
+    |step-length| and |step-time asymmetry| in the NLP, % (0: equal). Stability: the NLP
+    bounds the smooth bound rho_32 (>= the spectral radius) of the stride Jacobian by
+    ``max_stride_radius - radius_margin``; the re-simulated stride radius is the verdict
+    (<= ``max_stride_radius``; 0.81 = 0.9 per step). IPOPT: ``max_iter``, ``tol``,
+    ``hessian``; ``sample_stride`` as in :class:`~pdw_casadi.fit.FitOptions`.
+    """
+
+    first_step: float = 0.003
+    max_step: float = 0.1
+    min_step: float = 1e-4
+    max_solves: int = 20
+    symmetry_tol_pct: float = 0.0
+    max_stride_radius: float = 0.81
+    radius_margin: float = 0.01
+    max_iter: int = 100  # a homotopy step that solves takes ~10-30 (measured)
+    tol: float = 1e-6
+    hessian: str = "limited-memory"
+    sample_stride: int = 2
+    headroom_s: float = 0.0
+    #: shortest segment (s): the event order is the NLP's gait pattern (ShootingNLP.bounds)
+    t_min_s: float = 1e-3
+    verbose: bool = False
+    ipopt: dict = field(default_factory=dict)
+
+
+@dataclass
+class DesignSolve:
+    """One homotopy step of :func:`design_prosthesis_nlp`: the mass reduction (-), IPOPT
+    status, iterations, wall time (s), the NLP's stability bound at the answer, and the
+    re-simulated stride radius, asymmetries (%) and validity (None where no fixed point)."""
+
+    lighter: float
+    status: str
+    iterations: int
+    wall_time_s: float
+    nlp_radius: float
+    stride_radius: float
+    step_length_asymmetry_pct: float
+    step_time_asymmetry_pct: float
+    valid: bool | None
+
+
+class StrideDesignSolver:
+    """IPOPT on a stride :class:`~pdw_casadi.shooting.ShootingNLP` whose free parameters are
+    the prosthetic leg's compliance (``free``: names like ``right.k_ankle``), with the
+    symmetry rows, the stability row and the least-change objective (module docstring).
+
+    ``pinned`` (name -> value): NLP parameters held at a value other than the one the NLP
+    was built at (its unknown with equal bounds): a homotopy step builds the NLP at the
+    last answer, whose gait simulates, and pins the body values at the next mass."""
+
+    def __init__(self, nlp, free: Sequence[str], sound: dict, opts: DesignNLPOptions,
+                 pinned: dict | None = None, log=print):
+        from .fit.driver import _nlp_functions
+        from .fit.stability import StabilityRow
+
+        self.nlp, self.opts, self.log = nlp, opts, log
+        obj = 0
+        for name in free:
+            j = nlp.param_names.index(name)
+            c = sound[name]
+            # relative change from the sound leg's value (its magnitude, at least 0.01 in
+            # the parameter's units, like the NLP's own scaling of free parameters)
+            obj = obj + ((nlp.p[j] - c) / max(abs(c), 1e-2)) ** 2
+        L1, L2 = nlp.step_lengths
+        T1, T2 = nlp.step_times
+        self.asym = ca.Function("asymmetry", [nlp.w], [
+            100 * (L1 - L2) / (0.5 * (L1 + L2)), 100 * (T1 - T2) / (0.5 * (T1 + T2))])
+        rows = ca.vertcat(*self.asym(nlp.w))
+        self.objective = ca.Function("design_objective", [nlp.w], [obj])
+        self.row = StabilityRow(nlp)
+        self.n_w = nlp.w.shape[0]
+        self.nlp_fun, self.jac_g, self._keep = _nlp_functions(
+            nlp.w, obj, ca.vertcat(nlp.g, rows), self.row, self.n_w)
+        self.lbx, self.ubx = nlp.bounds(t_min=opts.t_min_s)
+        ns = nlp.xs.shape[0]
+        for name, v in (pinned or {}).items():
+            j = nlp.free.index(name)
+            self.lbx[ns + j] = self.ubx[ns + j] = v / nlp.p_scale[j]
+        tol = opts.symmetry_tol_pct
+        self.lbg = np.r_[nlp.lbg, -tol, -tol, -np.inf]
+        self.ubg = np.r_[nlp.ubg, tol, tol, opts.max_stride_radius - opts.radius_margin]
+
+    def solve(self, w0) -> dict:
+        """Solve from ``w0``: the answer ``w``, IPOPT status, iterations, wall time (s)."""
+        from .fit.driver import _Progress
+
+        opts = self.opts
+        ipopt = {"hessian_approximation": opts.hessian, "max_iter": opts.max_iter,
+                 "tol": opts.tol, "acceptable_tol": 100 * opts.tol, "acceptable_iter": 10,
+                 "print_level": 0, "sb": "yes", "mu_strategy": "adaptive", **opts.ipopt}
+        progress = _Progress(self.n_w, self.lbg.size, self.lbg, self.ubg, self.lbx, self.ubx,
+                             lambda x: {}, True, self.log if opts.verbose else None)
+        solver = ca.nlpsol("pdw_design", "ipopt", self.nlp_fun,
+                           {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
+                            "jac_g": self.jac_g, "show_eval_warnings": False})
+        w0 = np.clip(w0, self.lbx, self.ubx)
+        t0 = time.perf_counter()
+        sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        st = solver.stats()
+        w = sol["x"].full().ravel()
+        return {"w": w, "status": st["return_status"], "iterations": int(st["iter_count"]),
+                "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
+                "success": st["return_status"] in ("Solve_Succeeded",
+                                                   "Solved_To_Acceptable_Level")}
+
+
+def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
+                          side: str = "right", free: Sequence[str] = FREE,
+                          options: DesignNLPOptions | None = None,
+                          log=print) -> ProsthesisResult:
+    """Design the prosthetic leg's compliance as one stride NLP per homotopy step (module
+    docstring): ``problem`` the symmetric walker to start from, ``x0`` its periodic gait's
+    section state (default: the stride fixed point near the problem's initial state),
+    ``lighter`` the shank and foot mass and inertia reduction of the ``side`` leg (-),
+    ``free`` its compliance keys to design, ``log`` one line per NLP solve (None: quiet).
+    ``reached``: every homotopy step solved and the
+    final answer re-simulates as a stable (stride radius <= ``max_stride_radius``), valid
+    gait with both asymmetries below 1 %."""
+    from .shooting import ShootingNLP
+
+    t0 = time.perf_counter()
+    if problem.asymmetric:
+        raise ProblemError(f"{problem.name}: start from a symmetric walker")
+    opts = options or DesignNLPOptions()
+    log = log or (lambda msg: None)
+    names = list(physical_parameter_names(problem))
+    other = "left" if side == "right" else "right"
+    keys = [f"{side}.{k}" for k in free]
+    theta_sound = physical_parameter_vector(problem)
+    sound = {f"{side}.{k}": float(theta_sound[names.index(f"{other}.{k}")]) for k in free}
+    if x0 is None:
+        fp0 = find_stride_fixed_point(problem, tol=1e-10)
+        if not fp0.converged:
+            raise ProblemError(f"{problem.name}: no periodic gait near its initial state")
+        x0 = fp0.state
+    x = np.asarray(x0, float)
+    body = [f"{side}.{k}" for k in LIGHTER_KEYS]
+    path, solves = [(0.0, x.copy(), theta_sound.copy())], []
+    theta = theta_sound.copy()
+    fp = report = target = None
+    ok = False
+    step = min(opts.first_step, lighter)
+    while len(solves) < opts.max_solves:
+        done = path[-1][0]
+        level = min(done + step, lighter)
+        target = prosthetic_problem(problem, level, side)
+        theta_t = physical_parameter_vector(target)
+        # built at the last answer (its gait simulates; at the lighter leg with the old
+        # compliance it may not), the body values pinned at the new mass
+        nlp = ShootingNLP.stride(target, x, theta, free=(*keys, *body),
+                                 sample_stride=opts.sample_stride, headroom_s=opts.headroom_s)
+        pinned = {k: float(theta_t[names.index(k)]) for k in body}
+        out = StrideDesignSolver(nlp, keys, sound, opts, pinned, log=log).solve(nlp.w0)
+        u = nlp.unpack(out["w"])
+        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=1e-10,
+                                     fallback=False, smap=nlp.stride_map)
+        report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
+            if fp.converged else None
+        solves.append(DesignSolve(
+            level, out["status"], out["iterations"], out["wall_time_s"], out["radius"],
+            fp.spectral_radius if fp.converged else math.nan,
+            report["step_length_asymmetry_pct"] if report else math.nan,
+            report["step_time_asymmetry_pct"] if report else math.nan,
+            fp.valid if fp.converged else None))
+        log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
+            f"iterations ({out['wall_time_s']:.1f} s); NLP rho32 {out['radius']:.4f}, "
+            f"re-simulated stride radius {solves[-1].stride_radius:.4f}, valid "
+            f"{solves[-1].valid}")
+        good = (out["success"] and fp.converged and fp.valid
+                and fp.spectral_radius <= opts.max_stride_radius)
+        if not good:
+            step /= 2
+            if step < opts.min_step:
+                break
+            continue
+        x, theta = fp.state, fp.parameters
+        path.append((level, x.copy(), theta.copy()))
+        if level >= lighter:
+            ok = True
+            break
+        step = min(2 * step, opts.max_step)
+    last_level, x, theta = path[-1]
+    final = prosthetic_problem(problem, last_level, side)
+    designed = with_physical_parameters(final, theta).replace(
+        name=f"{problem.name}_prosthesis",
+        initial_state=dict(zip(problem.initial_state, x, strict=True)))
+    smap = StrideMap(designed)
+    fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=1e-10, fallback=False,
+                                 smap=smap)
+    report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
+    comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
+    good = (ok and fp.converged and fp.valid
+            and fp.spectral_radius <= opts.max_stride_radius
+            and abs(report["step_length_asymmetry_pct"]) < 1.0
+            and abs(report["step_time_asymmetry_pct"]) < 1.0)
+    return ProsthesisResult(designed, fp, report, comp, path, bool(good),
+                            time.perf_counter() - t0, solves)

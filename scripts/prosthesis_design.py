@@ -1,9 +1,14 @@
 """Design a prosthetic leg's compliance: right shank and foot lighter, gait made symmetric.
 
 Starts from a stable gait of the bundled atlas (``--entry``, default the walker's own gait
-at spectral radius 0.83) and runs :func:`pdw_casadi.prosthesis.design_prosthesis`; prints
-how far the continuation got, the step lengths and times per leg with their asymmetry, the stride's
-spectral radius, validity, the compliance found and the wall time. ``--out FILE.toml``
+at spectral radius 0.83) and runs the stride-NLP design
+:func:`pdw_casadi.prosthesis.design_prosthesis_nlp` (equal step lengths and times, stride
+spectral radius <= 0.81, least relative change of the prosthetic leg's compliance; mass
+homotopy, every step re-simulated); ``--method continuation`` runs the min-norm Newton
+continuation :func:`pdw_casadi.prosthesis.design_prosthesis` instead (symmetry without a
+stability condition). Prints how far the design got, the step lengths and times per leg
+with their asymmetry, the stride's spectral radius, validity, the compliance found and the
+wall time. ``--out FILE.toml``
 writes the designed walker as a problem file (``pdw-fixed-point --problem FILE.toml``
 re-solves it on the stride map).
 
@@ -15,7 +20,14 @@ from __future__ import annotations
 import argparse
 import time
 
-from pdw_casadi.prosthesis import START_ENTRY, atlas_problem, design_prosthesis, lighter_mass
+from pdw_casadi.prosthesis import (
+    START_ENTRY,
+    DesignNLPOptions,
+    atlas_problem,
+    design_prosthesis,
+    design_prosthesis_nlp,
+    lighter_mass,
+)
 from pdw_casadi.scaling import problem_toml
 
 
@@ -25,21 +37,35 @@ def main(argv=None) -> int:
                     help="fraction by which the right shank and foot are lighter")
     ap.add_argument("--entry", default=START_ENTRY,
                     help="label of the atlas entry to start from (default: %(default)s)")
+    ap.add_argument("--method", choices=("nlp", "continuation"), default="nlp",
+                    help="stride NLP with the stability row (default) or the min-norm "
+                         "Newton continuation")
+    ap.add_argument("--first-step", type=float, default=DesignNLPOptions.first_step,
+                    help="first mass homotopy step of the NLP design (default: %(default)s)")
     ap.add_argument("--no-hold", action="store_true",
-                    help="symmetry conditions only (do not hold the first phase's duration)")
+                    help="continuation: symmetry conditions only (do not hold the first "
+                         "phase's duration)")
     ap.add_argument("--out", help="write the designed walker to this TOML file")
     args = ap.parse_args(argv)
     base = atlas_problem(args.entry)
     t0 = time.perf_counter()
-    res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
+    if args.method == "nlp":
+        res = design_prosthesis_nlp(base, lighter=args.lighter,
+                                    options=DesignNLPOptions(first_step=args.first_step))
+        reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
+    else:
+        res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
+        reached = f"lambda = {res.path[-1][0]:.4f} ({len(res.path)} points)"
     took = time.perf_counter() - t0
     rep, fp = res.report, res.fixed_point
-    legs = rep["legs"]
     print(f"start: atlas entry {args.entry}; target: right shank+foot {100 * args.lighter:g} % "
-          f"lighter")
-    print(f"reached lambda = {res.path[-1][0]:.4f} ({len(res.path)} points): right shank+foot "
-          f"{100 * (1 - lighter_mass(res.problem)):.2f} % lighter; full target reached: "
-          f"{res.reached}")
+          f"lighter; method {args.method}")
+    print(f"reached {reached}: right shank+foot {100 * (1 - lighter_mass(res.problem)):.2f} % "
+          f"lighter; target met (stable, valid, symmetric): {res.reached}")
+    if rep is None:
+        print("no stride fixed point of the simulator at the last answer")
+        return 1
+    legs = rep["legs"]
     print(f"step length L/R {legs['left']['step_length_m']:.5f} / "
           f"{legs['right']['step_length_m']:.5f} m (asymmetry "
           f"{rep['step_length_asymmetry_pct']:.2e} %)")
@@ -49,9 +75,13 @@ def main(argv=None) -> int:
     print(f"stance % L/R {legs['left']['stance_pct']:.2f} / {legs['right']['stance_pct']:.2f}, "
           f"double support {rep['double_support_pct']:.2f} %")
     print(f"stride spectral radius {fp.spectral_radius:.4f} (per step {res.step_radius:.4f}); "
-          f"stable (per step <= 0.9): {res.step_radius <= 0.9}; valid: {fp.valid}")
+          f"stable (stride <= 0.81, per step <= 0.9): {fp.spectral_radius <= 0.81}; "
+          f"valid: {fp.valid}")
     print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
                                                  for k, v in res.compliance.items()))
+    for sv in res.solves:
+        print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
+              f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}")
     print(f"wall time {took:.1f} s")
     if args.out:
         with open(args.out, "w") as f:
