@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .hybrid import HybridSystem
+from .margins import leg_key
 from .poincare import MapResult, PoincareError, PoincareMap
 from .problem import LEG_SIDES, Problem, ProblemError, load_problem
 from .simulate import SimulationResult, Simulator, StepRecord
@@ -202,8 +203,8 @@ def _merged(s1: SimulationResult, s2: SimulationResult) -> SimulationResult:
                      a.dissipated_damping_J + b.dissipated_damping_J,
                      a.impact_loss_J + b.impact_loss_J, a.spring_loss_J + b.spring_loss_J,
                      a.energy_start_J, b.energy_end_J,
-                     {**{f"{LEG_SIDES[0]}.{k}": v for k, v in a.margins.items()},
-                      **{f"{LEG_SIDES[1]}.{k}": v for k, v in b.margins.items()}})
+                     {**{leg_key(LEG_SIDES[0], k): v for k, v in a.margins.items()},
+                      **{leg_key(LEG_SIDES[1], k): v for k, v in b.margins.items()}})
     return SimulationResult(None, [], [rec], None, s2.state_names, s2.final_state,
                             s2.final_mode)
 

@@ -17,6 +17,8 @@ from collections.abc import Mapping
 
 import pandas as pd
 
+from .margins import spec_of
+
 #: what the digits 1 and 2 in the names mean
 LEGS = ("leg 1 = the stance leg of the step, leg 2 = its swing leg (roles, not left/right: "
         "the legs swap at every step)")
@@ -65,7 +67,7 @@ class Units:
         model = hs.model
         self.coordinates = {*model.q_names, *(f"d{n}" for n in model.q_names),
                             *model.state_names}
-        self.margins = {k: m.unit for k, m in hs.margin_specs.items()}
+        self.specs = hs.margin_specs
         self.outputs = {name: m.unit for ms in hs.phase_margins.values() for _, name, m in ms}
         self.compliance = [n for n in model.parameter_names if n != "slope"]
 
@@ -84,8 +86,8 @@ class Units:
             return self.outputs[name]
         if name.startswith(("margin:", "param:")):
             return self.of(name.split(":", 1)[1])
-        if name in self.margins:
-            return self.margins[name]
+        if (m := spec_of(name, self.specs)) is not None:
+            return m.unit
         if name in self.compliance:
             return next((u for p, u in COMPLIANCE_PREFIXES if name.startswith(p)), None)
         if (u := _suffix_unit(name)) is not None:

@@ -214,3 +214,28 @@ def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
                     "--to", "0.149", "--num", "2", "--out", str(out)])
     assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_stride_validity_reads_both_steps_margins(symmetric):
+    """The stride's margins (keys prefixed with the stance leg) are checked against the
+    walker's requirements like a step's: with equal legs every slack of each step equals
+    the step fixed point's, and a requirement above the gait's smallest normal force makes
+    both the step and the stride gait invalid."""
+    from pdw_casadi.fixed_point import validity_slacks
+
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    stride = find_stride_fixed_point(pb, x0=step.state, tol=1e-11, smap=smap)
+    step_slacks = validity_slacks(step.margins, pb)
+    stride_slacks = validity_slacks(stride.margins, pb, smap.hs)
+    assert len(stride_slacks) == 2 * len(step_slacks) > 0
+    for side in ("left", "right"):
+        for key, slack in step_slacks.items():
+            assert abs(stride_slacks[f"{side}.{key}"] - slack) < 1e-6
+    assert step.valid and stride.valid
+    weakest = min(v for k, v in step.margins.items() if ":min_N_" in k)
+    strict = pb.replace(validity={**pb.validity, "min_normal_force": weakest + 1.0})
+    smap_s = StrideMap(strict)
+    assert not find_fixed_point(strict, x0=step.state, tol=1e-11).valid
+    bad = find_stride_fixed_point(strict, x0=step.state, tol=1e-11, smap=smap_s)
+    assert bad.converged and not bad.valid and "min_N_" in bad.failure
