@@ -214,10 +214,19 @@ def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
     ``compliance_bounds`` (or is negative where the walker needs it >= 0).
 
     The problem file's own values are checked when it is loaded; this applies the same
-    limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids.
+    limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids. A physical
+    leg's value (``right.k_ankle``, a stride parameter) has the key's bounds; a leg's body
+    value (``right.m_s``) must be positive.
     """
     fam = get_family(problem.family)
     for k, v in values.items():
+        side, dot, key = k.partition(".")
+        if dot and side in LEG_SIDES:  # one physical leg's value (stride parameters)
+            if key in fam.anthropometry_keys:
+                if not v > 0:
+                    raise ProblemError(f"{where}: '{k}' = {v:g} must be > 0")
+                continue
+            k = key
         if k == "slope":
             if not abs(v) < math.pi / 4:
                 raise ProblemError(f"{where}: slope = {v:g} rad must be below pi/4 rad")

@@ -22,7 +22,7 @@ g fixed, the walker's gait is the same in dimensionless form: angles equal, rate
 times x sqrt(s) (also the integrator step, so the *discrete* map scales exactly), inertias x
 m s^2, stiffness x m s, damping x m s^1.5, eigenvalues unchanged. A subject whose
 proportions differ from Table 1 is then reached by continuation in the body (anthropometry
-is a runtime parameter of the per-leg walker, :func:`pdw_casadi.stride.per_leg_system`, so no
+is a runtime parameter of the per-leg walker, :func:`pdw_casadi.system.per_leg_system`, so no
 recompilation).
 """
 

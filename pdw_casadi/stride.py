@@ -31,22 +31,7 @@ from .margins import leg_key
 from .poincare import MapResult, PoincareError, PoincareMap
 from .problem import LEG_SIDES, Problem, ProblemError, load_problem
 from .simulate import SimulationResult, Simulator, StepRecord
-
-_PER_LEG: dict[tuple, HybridSystem] = {}
-
-
-def per_leg_system(problem: Problem) -> HybridSystem | None:
-    """The per-leg :class:`HybridSystem` of ``problem``'s walker family (cached; one per
-    family and g: the body is a runtime parameter), or None if the family has none."""
-    from .walkers import get_family
-
-    fam = get_family(problem.family)
-    if fam.build_per_leg is None:
-        return None
-    key = (problem.family, problem.g)
-    if key not in _PER_LEG:
-        _PER_LEG[key] = HybridSystem(fam.build_per_leg(problem.family + "_per_leg", problem.g))
-    return _PER_LEG[key]
+from .system import per_leg_system
 
 
 def _layout(problem: Problem):

@@ -42,6 +42,8 @@ DESCRIBED = {
 #: compliance units by name prefix (stiffness, damping, angles)
 COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad"),
                        ("phi_", "rad"), ("ankle_rest", "rad"))
+#: body (anthropometry) units by name prefix: lengths, masses, inertias about the COM
+BODY_PREFIXES = (("l_", "m"), ("m_", "kg"), ("J_", "kg m^2"))
 
 
 #: SUFFIXES, the longest first (a name ends in the longest suffix it matches)
@@ -69,7 +71,8 @@ class Units:
                             *model.state_names}
         self.specs = hs.margin_specs
         self.outputs = {name: m.unit for ms in hs.phase_margins.values() for _, name, m in ms}
-        self.compliance = [n for n in model.parameter_names if n != "slope"]
+        # the per-leg walker's names carry the leg role (k_ankle@1); units go by the key
+        self.compliance = {n.partition("@")[0] for n in model.parameter_names if n != "slope"}
 
     def of(self, name: str) -> str | None:
         """The unit of a name (None: dimensionless or a label)."""
@@ -89,7 +92,11 @@ class Units:
         if (m := spec_of(name, self.specs)) is not None:
             return m.unit
         if name in self.compliance:
-            return next((u for p, u in COMPLIANCE_PREFIXES if name.startswith(p)), None)
+            return next((u for p, u in (*COMPLIANCE_PREFIXES, *BODY_PREFIXES)
+                         if name.startswith(p)), None)
+        side, dot, key = name.partition(".")
+        if dot and side in ("left", "right"):  # a physical leg's value (stride parameters)
+            return self.of(key)
         if (u := _suffix_unit(name)) is not None:
             return u
         if name.startswith("F_") or "_N_" in name:

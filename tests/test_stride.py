@@ -202,8 +202,10 @@ def test_fixed_point_cli_on_an_asymmetric_problem(tmp_path, capsys):
     assert len(curves) == 1 + 2 * 101 and (out / "leg_curves.png").stat().st_size > 0
 
 
-def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
-    from pdw_casadi.cli import sweep_main
+def test_one_leg_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
+    """The fit and a sweep with gait curves describe one leg: they refuse a walker whose
+    legs differ before writing anything (the plain sweep runs on the stride map)."""
+    from pdw_casadi.cli import fit_main, sweep_main
 
     path = tmp_path / "asym.toml"
     path.write_text(load_problem("humanlike_6link").source.read_text()
@@ -211,7 +213,11 @@ def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
     out = tmp_path / "sw"
     with pytest.raises(SystemExit) as exc:
         sweep_main(["--problem", str(path), "--param", "slope", "--from", "0.148",
-                    "--to", "0.149", "--num", "2", "--out", str(out)])
+                    "--to", "0.149", "--num", "2", "--gait", "female_fast.csv",
+                    "--out", str(out)])
+    assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        fit_main(["--gait", "female_fast.csv", "--problem", str(path), "--out", str(out)])
     assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
     assert not out.exists()
 
@@ -239,3 +245,30 @@ def test_stride_validity_reads_both_steps_margins(symmetric):
     assert not find_fixed_point(strict, x0=step.state, tol=1e-11).valid
     bad = find_stride_fixed_point(strict, x0=step.state, tol=1e-11, smap=smap_s)
     assert bad.converged and not bad.valid and "min_N_" in bad.failure
+
+
+def test_sweep_cli_on_an_asymmetric_problem(tmp_path):
+    """pdw-sweep over one leg's value: the table's columns carry that value's unit and both
+    legs' margins; every row is a converged stride gait."""
+    import pandas as pd
+
+    from pdw_casadi.cli import sweep_main
+
+    pb = load_problem("humanlike_6link")
+    step = find_fixed_point(pb, tol=1e-11)
+    path = tmp_path / "asym.toml"
+    state = "\n".join(f"{n} = {float(v)!r}" for n, v in zip(pb.initial_state, step.state,
+                                                      strict=True))
+    text = pb.source.read_text()
+    head = text[:text.index("[initial_state]")]
+    tail = text[text.index("[numerics]"):]
+    path.write_text(f"{head}[initial_state]\n{state}\n\n{tail}\n[compliance.right]\n"
+                    f"k_ankle = 5.1545\n")
+    out = tmp_path / "sw"
+    assert sweep_main(["--problem", str(path), "--param", "right.k_ankle", "--from", "5.1545",
+                       "--to", "5.1045", "--num", "2", "--out", str(out)]) == 0
+    tab = pd.read_csv(out / "sweep.csv")
+    assert "right.k_ankle_N_m_per_rad" in tab.columns
+    assert tab["converged"].all() and len(tab) == 2
+    legs = {c.split(".")[0] for c in tab.columns if c.startswith("margin:") and "." in c}
+    assert legs == {"margin:left", "margin:right"}
