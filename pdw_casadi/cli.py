@@ -379,7 +379,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
-        if res.converged and not stride:  # the stride map's two steps are not timed yet
+        if res.converged and not stride:
             summary["timing"] = timing_or_none(lambda: fixed_point_timing(
                 problem, res.state, res.parameters))
         if stride:
@@ -414,14 +414,19 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _stride_outputs(smap, res, out: Path, outputs) -> dict:
-    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``) and the
-    per-leg knee/hip curves in ``leg_curves.csv`` and ``leg_curves.png``."""
+    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``; per leg its
+    step, stance and swing and the timing of its own gait cycle) and the per-leg knee/hip
+    curves in ``leg_curves.csv`` and ``leg_curves.png``."""
     import pandas as pd
 
     from .plots import plot_leg_curves
-    from .stride import stride_report
+    from .stride import stride_report, stride_timing
 
     rep = stride_report(smap, res.state, res.parameters)
+    timing = timing_or_none(lambda: stride_timing(smap, res.state, res.parameters))
+    if timing is not None:  # each physical leg's own gait cycle
+        for side, t in timing.items():
+            rep["legs"][side]["timing"] = t.to_dict()
     curves = rep.pop("curves")
     frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
     frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)

@@ -263,6 +263,19 @@ def stride_report(smap: StrideMap, x, theta=None, curves: bool = True) -> dict:
     return out
 
 
+def stride_timing(smap: StrideMap, x, theta=None) -> dict:
+    """Gait timing of each physical leg's cycle (its stance step, then its swing step) at
+    the stride from section state ``x``: ``{"left": GaitTiming, "right": GaitTiming}``
+    (:mod:`pdw_casadi.timing`; the cycle's speed is the stride length over its time).
+    Raises :class:`~pdw_casadi.errors.TimingError` for a walker that declares no timing."""
+    from .timing import step_timing
+
+    r = smap.evaluate(x, theta, jacobian=False)
+    steps = [step.sim.steps[0] for step in r.steps]
+    fam = smap.problem.family
+    return {side: step_timing(fam, steps[i], steps[1 - i]) for i, side in enumerate(LEG_SIDES)}
+
+
 def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str | None,
                  n: int = 101) -> pd.DataFrame:
     """Knee, hip and thigh curves (deg) of the leg that is leg 1 in step ``own`` and leg 2

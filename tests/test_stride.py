@@ -272,3 +272,32 @@ def test_sweep_cli_on_an_asymmetric_problem(tmp_path):
     assert tab["converged"].all() and len(tab) == 2
     legs = {c.split(".")[0] for c in tab.columns if c.startswith("margin:") and "." in c}
     assert legs == {"margin:left", "margin:right"}
+
+
+def test_stride_timing_per_leg(symmetric):
+    """Each leg's gait-cycle timing at a stride gait: its cycle lasts the stride, its speed
+    is the stride length over the stride time, its stance share equals the stride report's
+    (phase sums), and with equal legs both legs' timing is the step fixed point's."""
+    from pdw_casadi.stride import stride_timing
+    from pdw_casadi.timing import fixed_point_timing
+
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    same = stride_timing(smap, step.state)
+    one = fixed_point_timing(pb, step.state, step.parameters)
+    for t in same.values():
+        assert abs(t.stance_pct - one.stance_pct) < 1e-9
+        assert np.allclose(t.double_support_pct, one.double_support_pct, atol=1e-9)
+        assert abs(t.speed_m_s - one.speed_m_s) < 1e-9
+    asym = _asymmetric(pb, c_knee_ext=1.21)
+    smap = StrideMap(asym)
+    fp = find_stride_fixed_point(asym, x0=step.state, smap=smap)
+    assert fp.converged
+    rep = stride_report(smap, fp.state, curves=False)
+    timing = stride_timing(smap, fp.state)
+    for side, t in timing.items():
+        assert abs(t.cycle_time_s - rep["stride_time_s"]) < 1e-12
+        assert abs(t.stride_length_m - rep["stride_length_m"]) < 1e-12
+        assert abs(t.speed_m_s - rep["speed_m_s"]) < 1e-12
+        assert abs(t.stance_pct - rep["legs"][side]["stance_pct"]) < 1e-9
+    assert abs(timing["left"].step_length_m - timing["right"].step_length_m) > 1e-6
