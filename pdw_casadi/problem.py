@@ -219,25 +219,25 @@ def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
     value (``right.m_s``) must be positive.
     """
     fam = get_family(problem.family)
-    for k, v in values.items():
-        side, dot, key = k.partition(".")
-        if dot and side in LEG_SIDES:  # one physical leg's value (stride parameters)
-            if key in fam.anthropometry_keys:
-                if not v > 0:
-                    raise ProblemError(f"{where}: '{k}' = {v:g} must be > 0")
-                continue
-            k = key
+    for name, v in values.items():
+        side, dot, k = name.partition(".")
+        if not (dot and side in LEG_SIDES):
+            k = name
+        elif k in fam.anthropometry_keys:  # one physical leg's body value (stride)
+            if not v > 0:
+                raise ProblemError(f"{where}: '{name}' = {v:g} must be > 0")
+            continue
         if k == "slope":
             if not abs(v) < math.pi / 4:
                 raise ProblemError(f"{where}: slope = {v:g} rad must be below pi/4 rad")
             continue
         if k in fam.nonnegative_compliance and v < 0:
-            raise ProblemError(f"{where}: '{k}' = {v:g} must be >= 0")
+            raise ProblemError(f"{where}: '{name}' = {v:g} must be >= 0")
         if k in problem.compliance_bounds:
             lo, hi = problem.compliance_bounds[k]
             if not lo <= v <= hi:
                 src = problem.source or problem.name
-                raise ProblemError(f"{where}: '{k}' = {v:g} lies outside its bounds "
+                raise ProblemError(f"{where}: '{name}' = {v:g} lies outside its bounds "
                                    f"[{lo:g}, {hi:g}] (compliance_bounds of {src})")
 
 
