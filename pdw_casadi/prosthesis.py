@@ -191,9 +191,10 @@ class DesignNLPOptions:
     Measured from the bundled atlas gait (``scripts/prosthesis_design.py``): the gaits there
     are so sensitive to the shank mass (a 0.1 % lighter leg raises the stride radius
     from 0.69 to 1.05 at the sound compliance) that a 10 % first step does not converge in
-    300 iterations, a 0.3 % one in 12 (six compliance values free). ``symmetry_tol_pct``: the largest accepted
-    |step-length| and |step-time asymmetry| in the NLP, % (0: equal). Stability: the NLP
-    bounds the smooth bound rho_32 (>= the spectral radius) of the stride Jacobian by
+    300 iterations, a 0.3 % one in 12 (six compliance values free).
+    ``symmetry_tol_pct``: the largest accepted |step-length| and |step-time asymmetry| in
+    the NLP, % (0: equal). Stability: the NLP bounds the smooth bound rho_32 (>= the
+    spectral radius) of the stride Jacobian by
     ``max_stride_radius - radius_margin``; the re-simulated stride radius is the verdict
     (<= ``max_stride_radius``; 0.81 = 0.9 per step). IPOPT: ``max_iter``, ``tol``,
     ``hessian``; ``sample_stride`` as in :class:`~pdw_casadi.fit.FitOptions`.

@@ -64,7 +64,7 @@ def asymmetric(base):
     the stride NLP there (two compliance values free)."""
     pb = prosthetic_problem(base, 1e-4)
     smap = StrideMap(pb)
-    fp = find_stride_fixed_point(pb, x0=find_stride_fixed_point(base).state, tol=1e-12,
+    fp = find_stride_fixed_point(pb, x0=find_stride_fixed_point(base).state, tol=1e-10,
                                  smap=smap, fallback=False)
     assert fp.converged
     nlp = ShootingNLP.stride(pb, fp.state, fp.parameters,
@@ -93,7 +93,8 @@ def test_stride_stability_row_is_the_stride_map_jacobian(asymmetric):
 def test_stride_stability_row_gradient_matches_finite_differences(asymmetric):
     """Off the orbit, the row's reverse-mode gradient over both steps (nodes, durations,
     both section states, the free parameters through both steps' role vectors) matches
-    Richardson central differences of the row itself, block by block, to 1e-6 relative."""
+    Richardson central differences of the row itself, block by block, to 1e-6 (relative,
+    or absolute below 1)."""
     *_, nlp = asymmetric
     row = StabilityRow(nlp)
     rng = np.random.default_rng(7)
@@ -111,7 +112,9 @@ def test_stride_stability_row_gradient_matches_finite_differences(asymmetric):
         v = np.zeros(w.size)
         v[sl] = rng.standard_normal(sl.stop - sl.start)
         v /= np.linalg.norm(v)
-        eps = 1e-7
+        # the stride's two leading eigenvalues nearly coincide (a 0.01 % asymmetry splits a
+        # double one), so the row curves sharply in the durations: smaller steps there
+        eps = 1e-7 if name == "T" else 1e-6
         fd = (4 * central(v, eps) - central(v, 2 * eps)) / 3
         assert abs(g @ v - fd) < 1e-6 * max(abs(fd), 1.0), (name, g @ v, fd)
 
@@ -129,6 +132,7 @@ def _design_checks(base, res, lighter):
     assert abs(lighter_mass(res.problem) - (1 - lighter)) < 1e-12
 
 
+@pytest.mark.slow  # 80 s; notebook 05 runs the same case in the default suite
 def test_design_nlp_makes_a_slightly_lighter_leg_symmetric_and_stable(base):
     """0.3 % lighter right shank and foot, one NLP solve: at the sound leg's compliance that
     walker's stride radius is above 0.81 (these gaits are that sensitive to the shank mass);
