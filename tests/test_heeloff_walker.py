@@ -15,7 +15,7 @@ from pdw_casadi.system import hybrid_system
 from pdw_casadi.timing import gait_timing, phase_contacts
 from pdw_casadi.walkers.humanlike_6link import Q_NAMES
 
-#: a stiff, late-engaging clutch spring on the shipped gait's start: the stance ankle's
+#: a stiff, late-engaging clutch spring on the ankle walker's gait: the stance ankle's
 #: plantarflexing torque carries the centre of pressure to the toe 0.41 s into the step
 STIFF_CLUTCH = {"k_clutch": 200.0, "phi_clutch": 1.65}
 
@@ -33,9 +33,17 @@ def _run(pb, steps=1, record=True, step_size=None):
 
 
 @pytest.fixture(scope="module")
-def rocker_step(heeloff):
-    """One step from the shipped state with the stiff clutch: I, II, heel off, II_toe."""
-    res = _run(heeloff.replace(compliance=STIFF_CLUTCH))
+def ankle_start(heeloff):
+    """The forefoot-rocker walker at the ankle walker's shipped gait and compliance."""
+    ankle = load_problem("humanlike_6link_ankle")
+    return heeloff.replace(compliance=dict(ankle.compliance), slope=ankle.slope).with_state(
+        ankle.state_vector())
+
+
+@pytest.fixture(scope="module")
+def rocker_step(ankle_start):
+    """One step from the ankle gait with the stiff clutch: I, II, heel off, II_toe."""
+    res = _run(ankle_start.replace(compliance=STIFF_CLUTCH))
     assert [n for n, _ in res.steps[0].phases][:3] == ["I", "II", "II_toe"]
     return res
 
@@ -52,12 +60,12 @@ def test_without_heel_off_it_is_the_ankle_walker():
     assert np.allclose(a.x_section_end, b.x_section_end, atol=1e-12)
 
 
-def test_heel_off_fires_where_the_cop_reaches_the_toe(heeloff, rocker_step):
+def test_heel_off_fires_where_the_cop_reaches_the_toe(ankle_start, rocker_step):
     """The guard is the ankle walker's cop1_at_toe failure, at the same instant (1e-12 s);
     there the simulator's centre of pressure is at the toe (to 1e-9 m), before it inside the
     foot, and the heel is still on the ground."""
     ankle = load_problem("humanlike_6link_ankle").replace(
-        compliance={**dict(heeloff.compliance), **STIFF_CLUTCH})
+        compliance=STIFF_CLUTCH)
     fail = _run(ankle, record=False).failure
     ev = rocker_step.events
     t_off = float(ev[ev.event == "heel_off"].t.iloc[0])
@@ -93,7 +101,7 @@ def test_toe_rocker_contact_holds(rocker_step):
     assert toe.heel1_height_m.iloc[-1] > 1e-3
 
 
-def test_energy_balance_closes_on_the_toe_rocker(heeloff, rocker_step):
+def test_energy_balance_closes_on_the_toe_rocker(ankle_start, rocker_step):
     """kinetic + potential + spring energy + damper work is constant through II_toe (no
     switch there): its drift is RK4's error, below 1e-7 J and falling by more than 8x when
     the step is halved (4th order: 16x)."""
@@ -106,7 +114,7 @@ def test_energy_balance_closes_on_the_toe_rocker(heeloff, rocker_step):
         return float(np.abs(total - total.iloc[0]).max())
 
     coarse = drift(rocker_step)
-    fine = drift(_run(heeloff.replace(compliance=STIFF_CLUTCH), step_size=2.5e-4))
+    fine = drift(_run(ankle_start.replace(compliance=STIFF_CLUTCH), step_size=2.5e-4))
     assert 0 < coarse < 1e-7
     assert fine < coarse / 8
 
@@ -144,3 +152,67 @@ def test_timing_reports_heel_off():
     assert t.heel_off_pct == pytest.approx(100 * (t3 + t1 + t2) / (2 * T), rel=1e-12)
     assert t.foot_flat_pct == pytest.approx(100 * t3 / (2 * T), rel=1e-12)
     assert t.stance_pct == pytest.approx(100 * (T + t1 + t3) / (2 * T), rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def shipped_gait(heeloff):
+    """The shipped problem's fixed point: a gait whose stance heel lifts in single support."""
+    from pdw_casadi.fixed_point import find_fixed_point
+
+    fp = find_fixed_point(heeloff, fallback=False)
+    assert fp.converged
+    run = Simulator(heeloff).run(fp.state, fp.parameters, steps=1, record=False)
+    assert [n for n, _ in run.steps[0].phases] == ["I", "II", "II_toe", "III"]
+    return fp
+
+
+def test_shooting_nlp_closes_through_the_toe_rocker(heeloff, shipped_gait):
+    """The shooting NLP at the heel-off gait has the segment chain of the simulator's plan
+    (phase II ends on heel_off, II_toe on heel_strike) and its own integrator closes the
+    step: every equality row (continuity, guards, transitions, periodicity) to 1e-6."""
+    from pdw_casadi.shooting import ShootingNLP
+
+    nlp = ShootingNLP(heeloff, shipped_gait.state, shipped_gait.parameters,
+                      free=tuple(heeloff.compliance_names))
+    chain = [(s.phase, nlp.hs.event_list[s.phase][s.event].name, s.transition)
+             for s in nlp.specs if s.transition is not None]
+    assert chain == [("I", "toe_off", "toe_off"), ("II", "heel_off", "heel_off"),
+                     ("II_toe", "heel_strike", "heel_strike_toe"),
+                     ("III", "foot_strike", "foot_strike")]
+    equality = {n for n, lo, hi in zip(nlp.g_names, nlp.lbg, nlp.ubg, strict=True) if lo == hi}
+    assert {"periodicity", "impact[heel_strike_toe]"} <= equality
+    worst = max((v for n, v in nlp.violations(nlp.w0) if n in equality), default=0.0)
+    assert worst < 1e-6
+
+
+def test_poincare_jacobian_through_heel_off(heeloff, shipped_gait):
+    """The exact-AD Jacobian of the step map (through the heel-off guard and the heel strike
+    from the toe) matches central finite differences of the simulator's map to 1e-5
+    relative."""
+    from pdw_casadi.poincare import PoincareMap
+
+    P = PoincareMap(heeloff)
+    x, p = shipped_gait.state, shipped_gait.parameters
+    J = P.evaluate(x, p).dx
+    eps = 1e-6
+    fd = np.column_stack([(P.evaluate(x + eps * e, p, jacobian=False).x_next
+                           - P.evaluate(x - eps * e, p, jacobian=False).x_next) / (2 * eps)
+                          for e in np.eye(x.size)])
+    assert np.abs(J - fd).max() < 1e-5 * np.abs(J).max()
+
+
+def test_energy_balance_of_a_heel_off_step(heeloff, shipped_gait):
+    """A whole step through heel off: E_start - E_end = damper work + impact losses (heel
+    strike from the toe, foot strike) + spring losses (knee, clutch), to RK4's error, which
+    falls by more than 8x when the step is halved."""
+    x, p = shipped_gait.state, shipped_gait.parameters
+    steps = []
+    for h in (5e-4, 2.5e-4):
+        pb = heeloff.replace(numerics={**heeloff.numerics, "step_size": h})
+        sr = Simulator(pb).run(x, p, steps=1, record=False).steps[0]
+        assert "II_toe" in dict(sr.phases)
+        steps.append(sr)
+    coarse, fine = steps
+    assert coarse.impact_loss_J > 0 and coarse.spring_loss_J > 0
+    assert 0 < abs(coarse.energy_residual_J) < 1e-5
+    assert abs(fine.energy_residual_J) < abs(coarse.energy_residual_J) / 8
