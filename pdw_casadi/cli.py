@@ -135,8 +135,9 @@ def _one_leg_set(problem: Problem) -> None:
     one-step map only."""
     if problem.asymmetric:
         raise UsageError(f"{problem.name}: its legs differ; this command works on walkers "
-                         f"with one set of values for both legs (pdw-simulate and "
-                         f"pdw-fixed-point solve asymmetric walkers on the stride map)")
+                         f"with one set of values for both legs (pdw-simulate, "
+                         f"pdw-fixed-point and pdw-sweep solve asymmetric walkers on the "
+                         f"stride map)")
 
 
 def load_cli_problem(args: argparse.Namespace) -> Problem:
@@ -378,7 +379,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             np.linalg.norm(res.state - problem.state_vector()))
         summary["problem"] = problem.name
         summary["initial_state"] = dict(problem.initial_state)
-        if res.converged and not stride:  # the stride map's two steps are not timed yet
+        if res.converged and not stride:
             summary["timing"] = timing_or_none(lambda: fixed_point_timing(
                 problem, res.state, res.parameters))
         if stride:
@@ -413,14 +414,19 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
 
 def _stride_outputs(smap, res, out: Path, outputs) -> dict:
-    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``) and the
-    per-leg knee/hip curves in ``leg_curves.csv`` and ``leg_curves.png``."""
+    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``; per leg its
+    step, stance and swing and the timing of its own gait cycle) and the per-leg knee/hip
+    curves in ``leg_curves.csv`` and ``leg_curves.png``."""
     import pandas as pd
 
     from .plots import plot_leg_curves
-    from .stride import stride_report
+    from .stride import stride_report, stride_timing
 
     rep = stride_report(smap, res.state, res.parameters)
+    timing = timing_or_none(lambda: stride_timing(smap, res.state, res.parameters))
+    if timing is not None:  # each physical leg's own gait cycle
+        for side, t in timing.items():
+            rep["legs"][side]["timing"] = t.to_dict()
     curves = rep.pop("curves")
     frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
     frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)
@@ -600,8 +606,9 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         prog="pdw-sweep", parents=[common_parser()],
         description="Parameter sweep of a periodic gait by continuation, with bifurcations.")
     parser.add_argument("--param", default="slope", metavar="NAME",
-                        help="parameter to sweep: slope (rad) or a compliance name "
-                             "(default: %(default)s)")
+                        help="parameter to sweep: slope (rad) or a compliance name; for a "
+                             "walker whose legs differ also one leg's value, e.g. "
+                             "right.k_ankle or right.m_s (default: %(default)s)")
     parser.add_argument("--from", dest="start", type=finite_float("--from"), required=True,
                         metavar="A", help="first value of the grid (unit of the parameter)")
     parser.add_argument("--to", dest="stop", type=finite_float("--to"), required=True,
@@ -639,7 +646,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             if args.param != "slope":
                 raise UsageError("--refit sweeps the slope (the compliance is refitted)")
         problem = load_cli_problem(args)
-        _one_leg_set(problem)
+        if problem.asymmetric and (args.gait or args.refit or args.from_fit):
+            raise UsageError(f"{problem.name}: its legs differ; --gait, --refit and "
+                             f"--from-fit need a walker with one set of values for both legs "
+                             f"(its gait is swept on the stride map without them)")
         if args.from_fit is not None:
             problem = load_fit_start(problem, args.from_fit)
         parameter_index(problem, args.param)  # an unknown name fails before any work
@@ -656,10 +666,10 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
 
         from .plots import plot_sweep
         from .sweep import SweepSettings, sweep
-        from .system import hybrid_system
+        from .system import gait_system
         from .units import Units
 
-        units = Units(hybrid_system(problem))
+        units = Units(gait_system(problem))
 
         corrector = None
         if args.refit:

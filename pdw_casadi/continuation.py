@@ -33,13 +33,16 @@ import numpy as np
 from .fixed_point import FixedPointResult, find_fixed_point
 from .poincare import PoincareMap
 from .problem import Problem, ProblemError
+from .stride import StrideMap, physical_parameter_names, physical_parameter_vector
 
 #: (x_guess, p) -> fixed point at parameters p (which hold the new lambda)
 Corrector = Callable[[np.ndarray, np.ndarray], FixedPointResult]
 
 
 class NewtonCorrector:
-    """Newton on P(x) - x at fixed compliance (:func:`find_fixed_point`, no IPOPT fallback).
+    """Newton on P(x) - x at fixed compliance (:func:`find_fixed_point`, no IPOPT fallback);
+    P is the stride map (:class:`~pdw_casadi.stride.StrideMap`) when the problem's legs
+    differ, so p is then its physical parameter vector (:func:`sweep_parameters`).
 
     ``tol``: |P(x) - x| to reach (rad, rad/s). ``max_iter``: a good prediction converges in
     a few iterations; more means the prediction is off and a shorter step is cheaper.
@@ -55,7 +58,8 @@ class NewtonCorrector:
     @property
     def pmap(self):
         if self._pmap is None:
-            self._pmap = PoincareMap(self.problem)
+            self._pmap = (StrideMap(self.problem) if self.problem.asymmetric
+                          else PoincareMap(self.problem))
         return self._pmap
 
     def __call__(self, x_guess, p) -> FixedPointResult:
@@ -109,9 +113,18 @@ class Branch:
     end: BranchEnd | None = None
 
 
+def sweep_parameters(problem: Problem) -> tuple[tuple[str, ...], np.ndarray]:
+    """(names, values) of the parameters a gait of ``problem`` is continued in: the
+    problem's parameter vector (compliance..., slope), or, when its legs differ, the stride
+    map's physical one (``left.k_ankle``, ..., ``right.m_s``, ..., ``slope``; SI units)."""
+    if problem.asymmetric:
+        return physical_parameter_names(problem), physical_parameter_vector(problem)
+    return tuple(problem.parameter_names), problem.parameter_vector()
+
+
 def parameter_index(problem: Problem, name: str) -> int:
-    """Index of parameter ``name`` in ``problem.parameter_vector()`` (compliance..., slope)."""
-    names = problem.parameter_names
+    """Index of parameter ``name`` in the vector of :func:`sweep_parameters`."""
+    names = list(sweep_parameters(problem)[0])
     if name not in names:
         raise ProblemError(f"{problem.name}: no parameter {name!r}; parameters: "
                            f"{', '.join(names)}")

@@ -47,6 +47,12 @@ class DesignOptions:
     max_rel_change: float = 0.2
     n_min: int = 10
     min_step: float = 1e-3
+    #: keep the gait valid along a continuation: a validity margin that falls below its
+    #: requirement is from then on held at requirement + ``margin_headroom`` x its scale
+    #: (the requirement, or its value at the path's start for margins required > 0 only),
+    #: an extra condition with its exact gradient (step maps; see :func:`continue_design`)
+    hold_margins: bool = False
+    margin_headroom: float = 0.1
 
 
 @dataclass
@@ -68,11 +74,15 @@ Extra = Callable[[object, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray,
 
 
 def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra | None = None,
-                 options: DesignOptions | None = None) -> DesignResult:
+                 options: DesignOptions | None = None,
+                 margin_gradients: bool = False) -> DesignResult:
     """Solve P(x, theta(u)) = x and ``extra`` = 0 for (x, u) (see the module docstring).
 
     ``free``: for each free value, the indices of theta it scales (relative change u_k).
+    ``margin_gradients``: the map results handed to ``extra`` carry the validity margins
+    with their gradients (:func:`margin_conditions`).
     """
+    evaluate = _evaluator(pmap, margin_gradients)
     opt = options or DesignOptions()
     t0 = time.perf_counter()
     theta0 = np.asarray(theta0, float).ravel()
@@ -89,7 +99,7 @@ def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra |
 
     def residual(x_, u_):
         th = theta_of(u_)
-        r = pmap.evaluate(x_, th, jacobian=True)
+        r = evaluate(x_, th)
         rows = [r.x_next - x_]
         J = np.hstack([r.dx - np.eye(n), r.dp @ E])
         if extra is not None:
@@ -136,6 +146,32 @@ def solve_design(pmap, x0, theta0, free: Sequence[Sequence[int]], extra: Extra |
                         it, history, time.perf_counter() - t0)
 
 
+def _evaluator(pmap, margin_gradients: bool):
+    """(x, theta) -> the map's result with exact Jacobians (and margin gradients)."""
+    if margin_gradients:
+        return lambda x, th: pmap.evaluate(x, th, jacobian=True, margin_gradients=True)
+    return lambda x, th: pmap.evaluate(x, th, jacobian=True)
+
+
+def margin_conditions(targets: dict[str, float], scales: dict[str, float]) -> Extra:
+    """Extra conditions holding validity margins (margins-table keys of a step map) at
+    ``targets`` (their units): (margin - target) / scale, with the exact gradients of the
+    margins' smallest samples (the map evaluated with ``margin_gradients``)."""
+    keys = sorted(targets)
+
+    def extra(r, x, theta):
+        if r.margin_grads is None:
+            raise ValueError("margin conditions need the map's margin gradients")
+        rows = [r.margin_grads[k] for k in keys]
+        v = np.array([(val - targets[k]) / scales[k] for k, (val, _, _) in zip(keys, rows,
+                                                                                strict=True)])
+        vx = np.vstack([gx / scales[k] for k, (_, gx, _) in zip(keys, rows, strict=True)])
+        vt = np.vstack([gp / scales[k] for k, (_, _, gp) in zip(keys, rows, strict=True)])
+        return v, vx, vt
+
+    return extra
+
+
 def symmetry_conditions(smap, length_scale: float, time_scale: float) -> Extra:
     """Extra conditions of a symmetric gait on the stride map ``smap``: (left step length -
     right step length) / ``length_scale`` and (left step time - right step time) /
@@ -166,12 +202,59 @@ def symmetry_conditions(smap, length_scale: float, time_scale: float) -> Extra:
 @dataclass
 class PathResult:
     """A design continuation: the last solved point, the path [(lambda, state, theta)],
-    ``reached`` (lambda = 1 solved) and the wall time (s)."""
+    ``reached`` (lambda = 1 solved), the wall time (s) and the validity margins held on
+    the way (key -> (lambda where the hold began, held value))."""
 
     last: DesignResult
     path: list
     reached: bool
     wall_time_s: float
+    held: dict = field(default_factory=dict)
+
+
+class _MarginHolds:
+    """The validity margins a continuation holds (``DesignOptions.hold_margins``): each
+    margin that falls below its requirement is held at requirement + headroom x scale."""
+
+    def __init__(self, pmap, x0, theta0, headroom: float):
+        from .fixed_point import validity_slacks
+
+        self.pmap, self.headroom = pmap, headroom
+        self._slacks = lambda m: validity_slacks(m, pmap.problem, pmap.hs)
+        start = self._margins(x0, theta0)
+        need = {k: v - s for k, v in start.items()
+                if (s := self._slacks({k: v}).get(k)) is not None}
+        # a margin required > 0 only (an impulse) takes its own size at the start as scale
+        self.need = need
+        self.scale = {k: (abs(n) if n > 0 else max(abs(start[k]), 1e-12))
+                      for k, n in need.items()}
+        self.targets: dict[str, float] = {}
+        self.held: dict[str, tuple[float, float]] = {}
+
+    def _margins(self, x, theta) -> dict:
+        r = self.pmap.evaluate(x, theta, jacobian=False, margins=True)
+        return dict(r.sim.steps[0].margins)
+
+    def broken(self, x, theta) -> list[str]:
+        """Margins below their requirement at (x, theta) that are not held yet."""
+        sl = self._slacks(self._margins(x, theta))
+        return [k for k, v in sl.items() if v < 0 and k not in self.targets]
+
+    def extra(self, base: Extra | None) -> Extra | None:
+        if not self.targets:
+            return base
+        held = margin_conditions(self.targets, {k: self.scale[k] for k in self.targets})
+        return held if base is None else combined(base, held)
+
+    def hold(self, keys, lam: float) -> None:
+        for k in keys:
+            self.targets[k] = self.need[k] + self.headroom * self.scale[k]
+            self.held[k] = (lam, self.targets[k])
+
+    def release(self, keys) -> None:
+        for k in keys:
+            self.targets.pop(k, None)
+            self.held.pop(k, None)
 
 
 def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[int]],
@@ -184,6 +267,11 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
     Each step is predicted along the exact minimum-norm tangent of the design; the step
     starts at 1/``options.n_min``, halves when a solve fails (down to
     ``options.min_step``) and doubles again after a success (up to 1/``n_min``).
+
+    With ``options.hold_margins`` (step maps) the path stays a valid gait: a solved point
+    at which a validity margin fell below its requirement is solved again with that margin
+    held (:func:`margin_conditions`, an active set that only grows); the point is accepted
+    when that solve converges with every margin met, else the step halves.
     """
     t0 = time.perf_counter()
     options = options or DesignOptions()
@@ -192,15 +280,19 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
     theta_end = np.asarray(theta_end, float)
     free_idx = sorted({i for idx in free for i in idx})
     first = solve_design(pmap, x0, theta_start, free, extra, options)
+    holds = (_MarginHolds(pmap, first.state, first.theta, options.margin_headroom)
+             if options.hold_margins and first.converged else None)
+    grads = False
     path = [(0.0, first.state, first.theta)]
     last, lam, step = first, 0.0, 1.0 / n_min
     direction = theta_end - theta_start
     direction[free_idx] = 0.0
     tangent = None
+    now = extra
     while last.converged and lam < 1.0 and step >= min_step:
         new = min(1.0, lam + step)
         if tangent is None:
-            tangent = _tangent(pmap, last, free, extra, direction)
+            tangent = _tangent(pmap, last, free, now, direction, grads)
         dx, du = tangent
         base = theta_start + new * (theta_end - theta_start)
         base[free_idx] = last.theta[free_idx]
@@ -208,7 +300,19 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
         scaled = base.copy()
         for j, idx in enumerate(free):  # the free values' predicted (relative) change
             scaled[idx] = base[idx] * (1.0 + (new - lam) * du[j])
-        cand = solve_design(pmap, guess, scaled, free, extra, options)
+        cand = solve_design(pmap, guess, scaled, free, now, options, grads)
+        if cand.converged and holds is not None:
+            broken = holds.broken(cand.state, cand.theta)
+            if broken:  # hold them and solve again at this lambda, from this point
+                holds.hold(broken, new)
+                again = solve_design(pmap, cand.state, cand.theta, free, holds.extra(extra),
+                                     options, True)
+                if again.converged and not holds.broken(again.state, again.theta):
+                    cand, now, grads = again, holds.extra(extra), True
+                else:
+                    holds.release(broken)
+                    cand = again
+                    cand.converged = False
         if cand.converged:
             lam, last, tangent = new, cand, None
             path.append((lam, cand.state, cand.theta))
@@ -216,15 +320,15 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
         else:
             step /= 2
     return PathResult(last, path, bool(last.converged and lam == 1.0),
-                      time.perf_counter() - t0)
+                      time.perf_counter() - t0, dict(holds.held) if holds else {})
 
 
-def _tangent(pmap, sol: DesignResult, free, extra, direction):
+def _tangent(pmap, sol: DesignResult, free, extra, direction, margin_gradients=False):
     """Minimum-norm tangent (dx/dlambda, du/dlambda) of the design at a solution, when the
     non-free parameters move along ``direction`` (exact: from the map's AD Jacobians)."""
     x, th = sol.state, sol.theta
     n = x.size
-    r = pmap.evaluate(x, th, jacobian=True)
+    r = _evaluator(pmap, margin_gradients)(x, th)
     E = np.zeros((th.size, len(free)))
     for j, idx in enumerate(free):
         for i in idx:
@@ -240,8 +344,9 @@ def _tangent(pmap, sol: DesignResult, free, extra, direction):
 
 
 def phase_time_conditions(smap, phase: str, target_s: float, scale_s: float) -> Extra:
-    """Extra conditions holding the duration of ``phase`` in both steps of a stride at
-    ``target_s`` (s): (duration - target) / ``scale_s`` per step, exact derivatives.
+    """Extra conditions holding the duration of ``phase`` in every step of the map at
+    ``target_s`` (s): (duration - target) / ``scale_s`` per step, exact derivatives; the
+    map is a stride map (two steps) or, with ``smap`` None, a step map (one step).
 
     Used to keep a gait away from a gait-pattern boundary: the 6-link gait's phase I lasts
     only a few ms (the trailing toe lifts soon after foot strike); a path on which it
@@ -249,6 +354,10 @@ def phase_time_conditions(smap, phase: str, target_s: float, scale_s: float) -> 
     """
 
     def extra(r, x, theta):
+        if smap is None:
+            d, gx, gp = r.phase_times[phase]
+            return (np.array([(d - target_s) / scale_s]), np.atleast_2d(gx) / scale_s,
+                    np.atleast_2d(gp) / scale_s)
         r1, r2 = r.steps
         d1, g1x, g1p = r1.phase_times[phase]
         d2, g2x, g2p = r2.phase_times[phase]

@@ -22,7 +22,7 @@ import pandas as pd
 
 from .margins import first_violation, slacks
 from .poincare import PoincareError, PoincareMap
-from .system import hybrid_system
+from .system import gait_system
 
 
 @dataclass
@@ -112,13 +112,13 @@ def validity_slacks(margins: dict, problem, hs=None) -> dict[str, float]:
     along a parameter sweep is a gait-pattern boundary. Margins that carry no requirement
     (e.g. the energy lost at knee-spring disengagement) are left out.
     """
-    return slacks(margins, (hs or hybrid_system(problem)).margin_specs, problem.validity)
+    return slacks(margins, (hs or gait_system(problem)).margin_specs, problem.validity)
 
 
 def validity_failure(margins: dict, problem, hs=None) -> str | None:
     """The first validity margin of ``margins`` below its required minimum (a message naming
     it and the requirement), or None."""
-    return first_violation(margins, (hs or hybrid_system(problem)).margin_specs,
+    return first_violation(margins, (hs or gait_system(problem)).margin_specs,
                            problem.validity)
 
 

@@ -113,16 +113,33 @@ def check_key(transition: str, check: str) -> str:
     return f"{transition}:{check}"
 
 
+def leg_key(side: str, key: str) -> str:
+    """The key of one step's margin ``key`` in a stride's table: the step's stance leg
+    (``left`` or ``right``) first, ``left.II:min_N_foot1`` (step keys hold no dot)."""
+    return f"{side}.{key}"
+
+
+def spec_of(key: str, specs: Mapping[str, Margin]) -> Margin | None:
+    """The margin spec of a margins-table key: a step's key, or a stride's (:func:`leg_key`),
+    whose spec is that of the step's key; None for a key that is no validity margin."""
+    if key in specs:
+        return specs[key]
+    _, dot, step_key = key.partition(".")
+    return specs.get(step_key) if dot else None
+
+
 def slacks(margins: Mapping[str, float], specs: Mapping[str, Margin],
            validity: Mapping[str, float]) -> dict[str, float]:
-    """Each margin of ``margins`` with a spec in ``specs``, minus its required minimum."""
-    return {k: float(v) - specs[k].minimum(validity) for k, v in margins.items() if k in specs}
+    """Each margin of ``margins`` with a spec in ``specs`` (step or stride keys), minus its
+    required minimum."""
+    return {k: float(v) - m.minimum(validity) for k, v in margins.items()
+            if (m := spec_of(k, specs)) is not None}
 
 
 def first_violation(margins: Mapping[str, float], specs: Mapping[str, Margin],
                     validity: Mapping[str, float]) -> str | None:
     """The first margin of ``margins`` below its requirement (a message), or None."""
     for k, v in margins.items():
-        if k in specs and (why := specs[k].violation(k, float(v), validity)):
+        if (m := spec_of(k, specs)) is not None and (why := m.violation(k, float(v), validity)):
             return why
     return None

@@ -20,6 +20,7 @@ import numpy as np
 from .compile import Lazy, LazyGroup
 from .errors import PoincareError
 from .hybrid import HybridSystem
+from .margins import check_key, phase_key
 from .problem import Problem, load_problem
 from .rk4 import rk4_sensitivities
 from .simulate import Segment, SimulationResult, Simulator
@@ -43,6 +44,9 @@ class MapResult:
     sim: SimulationResult
     #: per phase: (duration s, d/dx, d/dp), the phases' durations with exact gradients
     phase_times: dict | None = None
+    #: per validity margin (margins-table key): (value, d/dx, d/dp), its smallest sample
+    #: over the step with the exact gradient of that sample (``margin_gradients=True``)
+    margin_grads: dict | None = None
 
 
 class _Sensitivities:
@@ -95,6 +99,28 @@ class _Sensitivities:
             self.partial[name] = lazy.np("partial")
             for k in _SENS_CHUNKS:
                 self.chunks[(name, k)] = lazy.np(k)
+        # the validity margins' rows of each phase's outputs and of each impact's checks,
+        # with their exact derivatives (margin gradients of the step, built on first use)
+        xm, pm, mm = ca.SX.sym("x", nx), ca.SX.sym("p", npar), ca.SX.sym("m", nm)
+        self.margin_rows, self.margin_jac = {}, {}
+        for name, rows in hs.phase_margins.items():
+            if not rows:
+                continue
+            out = hs.outputs[name](xm, pm, mm)
+            o = ca.vertcat(*[out[r] for r, _, _ in rows])
+            self.margin_rows[name] = rows
+            self.margin_jac[name] = Lazy(ca.Function(
+                f"margin_jac_{name}", [xm, pm, mm],
+                [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
+        self.check_rows, self.check_jac = {}, {}
+        for name, rows in hs.check_margins.items():
+            if not rows:
+                continue
+            chk = hs.impact[name](xm, pm)[2]
+            o = ca.vertcat(*[chk[r] for r, _, _ in rows])
+            self.check_rows[name] = rows
+            self.check_jac[name] = Lazy(ca.Function(
+                f"check_jac_{name}", [xm, pm], [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
 
 
 _SENS: dict[int, _Sensitivities] = {}
@@ -122,10 +148,14 @@ class PoincareMap:
         return self.evaluate(x, p, jacobian=False).x_next
 
     def evaluate(self, x, p=None, jacobian: bool = True, record: bool = False,
-                 margins: bool = False) -> MapResult:
+                 margins: bool = False, margin_gradients: bool = False) -> MapResult:
         """Simulate one step from section state ``x``; with ``jacobian`` also dP/dx, dP/dp.
 
         ``record``: keep the trajectory (and margins) in ``sim``; ``margins``: margins only.
+        ``margin_gradients`` (with ``jacobian``): also each validity margin's smallest
+        sample with its exact gradient (``margin_grads``; the sensitivities are then
+        carried one RK4 step at a time through phases that have margins, a few times
+        slower).
         """
         p = self.problem.parameter_vector() if p is None else np.asarray(p, float).ravel()
         x = np.asarray(x, float).ravel()
@@ -135,43 +165,65 @@ class PoincareMap:
         sr = res.steps[0]
         if not jacobian:
             return MapResult(sr.x_section_end, None, None, sr.step_time, None, None, res)
-        x_end, S, dT, dT_phase = self._replay(sr.plan, x, p)
+        mins = {} if margin_gradients else None
+        x_end, S, dT, dT_phase = self._replay(sr.plan, x, p, mins)
         ns = len(x)
         durations = {}
         for ph, d in sr.phases:
             durations[ph] = durations.get(ph, 0.0) + d
         phase_times = {ph: (durations[ph], g[:ns], g[ns:]) for ph, g in dT_phase.items()}
+        grads = None if mins is None else {k: (v, g[:ns], g[ns:]) for k, (v, g) in mins.items()}
         return MapResult(x_end, S[:, :ns], S[:, ns:], sr.step_time, dT[:ns], dT[ns:], res,
-                         phase_times)
+                         phase_times, grads)
 
-    def _replay(self, plan, xs, p):
-        """Re-run the discrete map of ``plan`` with forward sensitivities (exact AD)."""
+    def _replay(self, plan, xs, p, mins: dict | None = None):
+        """Re-run the discrete map of ``plan`` with forward sensitivities (exact AD).
+
+        ``mins`` (a dict to fill, or None): margins-table key -> (smallest sample, its
+        gradient in z = (xs, p)), over the samples each margin counts."""
         hs, sens = self.hs, _sens(self.hs)
         nx, nz = hs.nx, sens.nz
         x, S = (np.asarray(v) for v in sens.section(xs, p))
         x = x.ravel()
         dT = np.zeros(nz)
         dT_phase: dict[str, np.ndarray] = {}
-        for item in plan.items:
+        clock = _PhaseClock(plan) if mins is not None else None
+        for i, item in enumerate(plan.items):
             if isinstance(item, Segment):
                 before = dT
-                x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz)
+                track = None
+                if clock is not None and item.phase in sens.margin_rows:
+                    track = (clock.start[i], clock.phase_start[i], clock.duration[i], mins)
+                x, S, dT = self._segment(item, x, S, dT, p, sens, nx, nz, track)
                 dT_phase[item.phase] = dT_phase.get(item.phase, 0.0) + (dT - before)
             else:  # a TransitionItem
+                if mins is not None and item.name in sens.check_jac:
+                    v, vx, vp = sens.check_jac[item.name](x, p)
+                    g = np.asarray(vx) @ S + np.asarray(vp) @ sens.Sp
+                    for j, (_, name, _) in enumerate(sens.check_rows[item.name]):
+                        mins[check_key(item.name, name)] = (float(np.ravel(v)[j]), g[j])
                 xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
         J_out = np.asarray(sens.section_out(x))
         return hs.full_to_section.np(x).ravel(), J_out @ S, dT, dT_phase
 
-    def _segment(self, seg: Segment, x, S, dT, p, sens, nx, nz):
+    def _segment(self, seg: Segment, x, S, dT, p, sens, nx, nz, track=None):
         mv = list(seg.mode)
         z = np.concatenate([x, S.ravel(order="F")])
         n = seg.n
-        for k in _SENS_CHUNKS:
-            while n >= k:
-                z = sens.chunks[(seg.phase, k)](z, seg.h, p, mv).ravel()
-                n -= k
+        if track is None:
+            for k in _SENS_CHUNKS:
+                while n >= k:
+                    z = sens.chunks[(seg.phase, k)](z, seg.h, p, mv).ravel()
+                    n -= k
+        else:  # one step at a time: every sample's margins and their gradients
+            t0, phase_t0, phase_dur, mins = track
+            for j in range(n + 1):
+                if j:
+                    z = sens.chunks[(seg.phase, 1)](z, seg.h, p, mv).ravel()
+                self._margin_sample(seg.phase, z[:nx], z[nx:].reshape((nx, nz), order="F"),
+                                    t0 + j * seg.h, phase_t0, phase_dur, p, mv, sens, mins)
         x, S = z[:nx], z[nx:].reshape((nx, nz), order="F")
         xe, Se, fh = sens.partial[seg.phase](x, S.ravel(order="F"), seg.tau, p, mv)
         xe, Se, fh = xe.ravel(), Se.reshape((nx, nz), order="F"), fh.ravel()
@@ -179,7 +231,43 @@ class PoincareMap:
         i = seg.event
         dg = gx[i] @ Se + gp[i] @ sens.Sp
         dtau = -dg / (gx[i] @ fh)
-        return xe, Se + np.outer(fh, dtau), dT + dtau
+        S_end = Se + np.outer(fh, dtau)
+        if track is not None:  # the event sample: its time moves with z
+            self._margin_sample(seg.phase, xe, S_end, t0 + seg.n * seg.h + seg.tau,
+                                phase_t0, phase_dur, p, mv, sens, mins)
+        return xe, S_end, dT + dtau
+
+    @staticmethod
+    def _margin_sample(phase, x, S, t, phase_t0, phase_dur, p, mv, sens, mins):
+        """Fold one sample (state x, sensitivity S, time t) into the running minima."""
+        v, vx, vp = sens.margin_jac[phase](x, p, mv)
+        v = np.ravel(v)
+        for j, (_, name, spec) in enumerate(sens.margin_rows[phase]):
+            if not spec.counted(t, phase_t0, phase_dur):
+                continue
+            key = phase_key(phase, name)
+            if key not in mins or v[j] < mins[key][0]:
+                mins[key] = (float(v[j]), vx[j] @ S + vp[j] @ sens.Sp)
+
+
+class _PhaseClock:
+    """Start time of each plan segment, and of the phase it belongs to with that phase's
+    duration (s, from the step's start): phases end at transitions."""
+
+    def __init__(self, plan):
+        self.start, self.phase_start, self.duration = {}, {}, {}
+        t, run = 0.0, []
+        for i, item in enumerate([*plan.items, None]):
+            if isinstance(item, Segment):
+                self.start[i] = t
+                run.append(i)
+                t += item.n * item.h + item.tau
+                continue
+            if run:  # a transition (or the plan's end) closes the phase of the run
+                t0 = self.start[run[0]]
+                for k in run:
+                    self.phase_start[k], self.duration[k] = t0, t - t0
+                run = []
 
     def jacobian(self, x, p=None):
         """(P(x, p), dP/dx, dP/dp) with exact AD derivatives."""

@@ -214,21 +214,30 @@ def check_bounds(problem: Problem, values: Mapping[str, float], where) -> None:
     ``compliance_bounds`` (or is negative where the walker needs it >= 0).
 
     The problem file's own values are checked when it is loaded; this applies the same
-    limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids.
+    limits to overrides (``--compliance``, ``--from-fit``) and to sweep grids. A physical
+    leg's value (``right.k_ankle``, a stride parameter) has the key's bounds; a leg's body
+    value (``right.m_s``) must be positive.
     """
     fam = get_family(problem.family)
-    for k, v in values.items():
+    for name, v in values.items():
+        side, dot, k = name.partition(".")
+        if not (dot and side in LEG_SIDES):
+            k = name
+        elif k in fam.anthropometry_keys:  # one physical leg's body value (stride)
+            if not v > 0:
+                raise ProblemError(f"{where}: '{name}' = {v:g} must be > 0")
+            continue
         if k == "slope":
             if not abs(v) < math.pi / 4:
                 raise ProblemError(f"{where}: slope = {v:g} rad must be below pi/4 rad")
             continue
         if k in fam.nonnegative_compliance and v < 0:
-            raise ProblemError(f"{where}: '{k}' = {v:g} must be >= 0")
+            raise ProblemError(f"{where}: '{name}' = {v:g} must be >= 0")
         if k in problem.compliance_bounds:
             lo, hi = problem.compliance_bounds[k]
             if not lo <= v <= hi:
                 src = problem.source or problem.name
-                raise ProblemError(f"{where}: '{k}' = {v:g} lies outside its bounds "
+                raise ProblemError(f"{where}: '{name}' = {v:g} lies outside its bounds "
                                    f"[{lo:g}, {hi:g}] (compliance_bounds of {src})")
 
 

@@ -22,7 +22,7 @@ g fixed, the walker's gait is the same in dimensionless form: angles equal, rate
 times x sqrt(s) (also the integrator step, so the *discrete* map scales exactly), inertias x
 m s^2, stiffness x m s, damping x m s^1.5, eigenvalues unchanged. A subject whose
 proportions differ from Table 1 is then reached by continuation in the body (anthropometry
-is a runtime parameter of the per-leg walker, :func:`pdw_casadi.stride.per_leg_system`, so no
+is a runtime parameter of the per-leg walker, :func:`pdw_casadi.system.per_leg_system`, so no
 recompilation).
 """
 
@@ -157,20 +157,23 @@ def scaled_state(problem: Problem, x, s: float) -> np.ndarray:
 class SubjectResult:
     """A subject's walker: the problem (with the fixed point as its initial state), the
     fixed point, the continuation path [(lambda, state, theta)] (lambda 0 = the uniformly
-    scaled reference, 1 = the subject), the wall time (s) and whether lambda = 1 was
-    reached."""
+    scaled reference, 1 = the subject), the wall time (s), whether lambda = 1 was
+    reached, the validity margins held on the way (key -> (lambda, held value)) and the
+    label of the reference gait it started from."""
 
     problem: Problem
     fixed_point: object
     path: list = field(default_factory=list)
     wall_time_s: float = 0.0
     reached: bool = False
+    held: dict = field(default_factory=dict)
+    start: str = "own"
 
 
 def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
                        reference: Problem | None = None, x_ref=None,
                        adapt: Sequence[str] | None = ADAPTED,
-                       options=None) -> SubjectResult:
+                       options=None, hold_first_phase: bool = True) -> SubjectResult:
     """The reference walker moved onto a subject's body, with its periodic gait.
 
     1. The reference gait (``x_ref``, else the fixed point near the problem's state) is
@@ -183,9 +186,14 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
        the body that at fixed compliance it is lost within a thousandth of that path; the
        compliance is what "adapts the walker to a weight and leg length". ``adapt=None``
        keeps the compliance fixed (plain Newton continuation). ``options``: the solver's
-       :class:`~pdw_casadi.design.DesignOptions` (tolerance, continuation steps).
+       :class:`~pdw_casadi.design.DesignOptions` (tolerance, continuation steps; by
+       default validity margins that would break are held, ``hold_margins``: a longer
+       shank leaves the swing toe less clearance). ``hold_first_phase``: hold the
+       duration of the walker's first phase at its start value (the 6-link gait's phase I
+       lasts a few ms; where it vanishes the trailing toe never lifts and the gait is
+       lost).
     """
-    from .design import DesignOptions, continue_design
+    from .design import DesignOptions, continue_design, phase_time_conditions
     from .fixed_point import find_fixed_point
     from .poincare import PoincareMap
     from .stride import (
@@ -196,7 +204,7 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     )
 
     t0 = time.perf_counter()
-    opts = options or DesignOptions()
+    opts = options or DesignOptions(hold_margins=True)
     tol = opts.tol
     ref = reference or load_problem("humanlike_6link")
     if ref.asymmetric:
@@ -215,14 +223,63 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     theta0, theta1 = physical_parameter_vector(uni), physical_parameter_vector(target)
     pmap = PoincareMap(uni, hs)  # symmetric body: the step map of the per-leg walker
     free = [[names.index(f"{side}.{k}") for side in ("left", "right")] for k in (adapt or ())]
-    run = continue_design(pmap, scaled_state(ref, x_ref, s), theta0, theta1, free, None, opts)
+    x_uni = scaled_state(ref, x_ref, s)
+    extra = None
+    if hold_first_phase:
+        first = pmap.evaluate(x_uni, theta0)
+        phase = hs.phase_names[0]
+        extra = phase_time_conditions(None, phase, first.phase_times[phase][0],
+                                      first.step_time)
+    run = continue_design(pmap, x_uni, theta0, theta1, free, extra, opts)
     last = run.last
     body = with_physical_parameters(uni, last.theta)
     body = body.replace(initial_state=dict(zip(uni.initial_state, last.state, strict=True)))
     fp = find_fixed_point(body, x0=last.state, p=last.theta, tol=tol, fallback=False,
                           pmap=PoincareMap(body, hs))
     return SubjectResult(body, fp, [(lam, st.copy(), th.copy()) for lam, st, th in run.path],
-                         time.perf_counter() - t0, run.reached and fp.converged)
+                         time.perf_counter() - t0, run.reached and fp.converged and fp.valid,
+                         run.held)
+
+
+def reference_gaits(reference: Problem) -> list[tuple[str, Problem]]:
+    """The reference walker's gaits a subject's walker may start from: its own, then the
+    stable gaits of its bundled atlas (:mod:`pdw_casadi.fit.starts`), most stable first,
+    as (label, problem at that gait's compliance and state)."""
+    from .fit.starts import load_atlas
+
+    entries = sorted(load_atlas(reference), key=lambda e: e.spectral_radius)
+    return [("own", reference)] + [
+        (e.label, reference.with_parameters(e.parameters).with_state(e.state))
+        for e in entries]
+
+
+def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
+                   reference: Problem | None = None, log=None) -> SubjectResult:
+    """:func:`walker_for_subject` from each of :func:`reference_gaits` in turn until one
+    reaches the subject's body with a valid gait; else the attempt that got furthest.
+    ``log``: called with a line per attempt."""
+    from .fixed_point import find_fixed_point
+
+    ref = reference or load_problem("humanlike_6link")
+    best = None
+    t0 = time.perf_counter()
+    for label, start in reference_gaits(ref):
+        fp0 = find_fixed_point(start)
+        if not (fp0.converged and fp0.valid):
+            continue
+        res = walker_for_subject(mass_kg, height_m, sex, start, fp0.state)
+        res.start = label
+        if log is not None:
+            log(f"from the {label} gait: lambda {res.path[-1][0]:.4f}"
+                f"{' (reached)' if res.reached else ''}, {res.wall_time_s:.1f} s")
+        if best is None or res.path[-1][0] > best.path[-1][0] or res.reached:
+            best = res
+        if res.reached:
+            break
+    if best is None:
+        raise ProblemError(f"{ref.name}: no valid reference gait to start from")
+    best.wall_time_s = time.perf_counter() - t0
+    return best
 
 
 def problem_toml(problem: Problem, header: str = "") -> str:
@@ -333,15 +390,20 @@ def scale_main(argv=None) -> int:
                 ref, fp0.state, s))
             rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
         else:
-            res = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], ref)
+            res = subject_walker(who["mass_kg"], who["height_m"], who["sex"], ref,
+                                 log=lambda line: print(line, file=sys.stderr))
             lam = res.path[-1][0]
             if not res.reached:
                 raise NoGait(f"the continuation from the uniformly scaled reference stopped "
                              f"at lambda = {lam:.4f} of the way to the subject's body "
-                             f"(nothing written)")
-            pb, rho = res.problem.replace(name=args.out.stem), res.fixed_point.spectral_radius
-            note = (f"continuation in the body from the uniformly scaled reference, "
-                    f"{len(res.path)} points, compliance adapted")
+                             f"(best of {ref.name}'s reference gaits; nothing written)")
+            fp = res.fixed_point
+            pb, rho = res.problem.replace(name=args.out.stem), fp.spectral_radius
+            held = ", ".join(f"{k} held at {v:.4g} from lambda {lam_:g}"
+                             for k, (lam_, v) in res.held.items()) or "none held"
+            note = (f"continuation in the body from the uniformly scaled reference ({res.start}"
+                    f" gait), {len(res.path)} points, compliance adapted; validity margins: "
+                    f"{held}; {'stable' if fp.stable else 'NOT stable'}, valid")
         header = (f"# {who['mass_kg']:g} kg, {who['height_m']:g} m, {who['sex']}: written by "
                   f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
                   f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"

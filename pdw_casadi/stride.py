@@ -27,25 +27,11 @@ import numpy as np
 import pandas as pd
 
 from .hybrid import HybridSystem
+from .margins import leg_key
 from .poincare import MapResult, PoincareError, PoincareMap
 from .problem import LEG_SIDES, Problem, ProblemError, load_problem
 from .simulate import SimulationResult, Simulator, StepRecord
-
-_PER_LEG: dict[tuple, HybridSystem] = {}
-
-
-def per_leg_system(problem: Problem) -> HybridSystem | None:
-    """The per-leg :class:`HybridSystem` of ``problem``'s walker family (cached; one per
-    family and g: the body is a runtime parameter), or None if the family has none."""
-    from .walkers import get_family
-
-    fam = get_family(problem.family)
-    if fam.build_per_leg is None:
-        return None
-    key = (problem.family, problem.g)
-    if key not in _PER_LEG:
-        _PER_LEG[key] = HybridSystem(fam.build_per_leg(problem.family + "_per_leg", problem.g))
-    return _PER_LEG[key]
+from .system import per_leg_system
 
 
 def _layout(problem: Problem):
@@ -202,8 +188,8 @@ def _merged(s1: SimulationResult, s2: SimulationResult) -> SimulationResult:
                      a.dissipated_damping_J + b.dissipated_damping_J,
                      a.impact_loss_J + b.impact_loss_J, a.spring_loss_J + b.spring_loss_J,
                      a.energy_start_J, b.energy_end_J,
-                     {**{f"{LEG_SIDES[0]}.{k}": v for k, v in a.margins.items()},
-                      **{f"{LEG_SIDES[1]}.{k}": v for k, v in b.margins.items()}})
+                     {**{leg_key(LEG_SIDES[0], k): v for k, v in a.margins.items()},
+                      **{leg_key(LEG_SIDES[1], k): v for k, v in b.margins.items()}})
     return SimulationResult(None, [], [rec], None, s2.state_names, s2.final_state,
                             s2.final_mode)
 
@@ -275,6 +261,19 @@ def stride_report(smap: StrideMap, x, theta=None, curves: bool = True) -> dict:
         a, b = res.trajectory, res2.trajectory
         out["curves"] = {"left": stride_cycle(a, b, hsp), "right": stride_cycle(b, a, hsp)}
     return out
+
+
+def stride_timing(smap: StrideMap, x, theta=None) -> dict:
+    """Gait timing of each physical leg's cycle (its stance step, then its swing step) at
+    the stride from section state ``x``: ``{"left": GaitTiming, "right": GaitTiming}``
+    (:mod:`pdw_casadi.timing`; the cycle's speed is the stride length over its time).
+    Raises :class:`~pdw_casadi.errors.TimingError` for a walker that declares no timing."""
+    from .timing import step_timing
+
+    r = smap.evaluate(x, theta, jacobian=False)
+    steps = [step.sim.steps[0] for step in r.steps]
+    fam = smap.problem.family
+    return {side: step_timing(fam, steps[i], steps[1 - i]) for i, side in enumerate(LEG_SIDES)}
 
 
 def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str | None,

@@ -39,6 +39,7 @@ from .continuation import (
     continue_branch,
     parameter_index,
     predict,
+    sweep_parameters,
     with_value,
 )
 from .curves import cycle_curves, fit_scores
@@ -182,7 +183,7 @@ def stable_ranges(table: pd.DataFrame, events: list[BranchEvent], parameter: str
 # -- the sweep -------------------------------------------------------------------------------
 def start_point(problem: Problem, index: int, corrector: Corrector) -> BranchPoint:
     """The fixed point of ``problem`` at its own parameters, from its initial state."""
-    p = problem.parameter_vector()
+    p = sweep_parameters(problem)[1]
     return BranchPoint(float(p[index]), corrector(problem.state_vector(), p), branch=0)
 
 
@@ -273,11 +274,14 @@ def sweep(problem: Problem, values, parameter: str = "slope", mode: str = "conti
     Args:
         problem: walker problem; its initial state and parameters give the start fixed point.
         values: grid of parameter values (unit of the parameter: rad for the slope).
-        parameter: ``"slope"`` or a compliance name of the problem.
+        parameter: ``"slope"`` or a compliance name of the problem; when the problem's legs
+            differ (the gait is a fixed point of the stride map), a physical leg's value
+            such as ``right.k_ankle`` or ``right.m_s`` (:func:`sweep_parameters`).
         mode: ``"continuation"`` or ``"grid"``.
         corrector: (x_guess, p) -> FixedPointResult; default Newton at fixed compliance.
         workers / scheduler: where independent work runs (:func:`map_tasks`).
-        gait: gait-curve file; adds R^2 columns.
+        gait: gait-curve file; adds R^2 columns (walkers with one set of values for both
+            legs: the curves are one leg's).
         on_row: called with every row as soon as it is known.
         progress: called with the number of grid values newly covered.
     Raises:
@@ -285,6 +289,9 @@ def sweep(problem: Problem, values, parameter: str = "slope", mode: str = "conti
     """
     settings = settings or SweepSettings()
     index = parameter_index(problem, parameter)
+    if gait is not None and problem.asymmetric:
+        raise ProblemError(f"{problem.name}: its legs differ, so one gait-curve file does "
+                           f"not describe both; sweep it without gait curves")
     grid = [float(v) for v in values]
     if len(grid) < 2 or len(set(grid)) != len(grid) or not all(map(math.isfinite, grid)):
         shown = ", ".join(f"{v:g}" for v in grid[:6]) + (", ..." if len(grid) > 6 else "")

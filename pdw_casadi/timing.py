@@ -80,6 +80,8 @@ class GaitTiming:
     swing_s: float
     double_support_s: tuple[float, ...]
     phase_durations_s: tuple[tuple[str, float], ...] = field(default=())
+    #: length of the cycle's other step (m); None: equal to ``step_length_m``
+    next_step_length_m: float | None = None
 
     @property
     def double_support_total_pct(self) -> float:
@@ -91,7 +93,9 @@ class GaitTiming:
 
     @property
     def stride_length_m(self) -> float:
-        return 2.0 * self.step_length_m
+        other = self.step_length_m if self.next_step_length_m is None else (
+            self.next_step_length_m)
+        return self.step_length_m + other
 
     def to_dict(self) -> dict:
         """Plain values plus a ``units`` table (JSON-ready)."""
@@ -124,12 +128,14 @@ def phase_contacts(family: str) -> Mapping[str, tuple[str | None, str | None]]:
 
 def gait_timing(phases: Sequence[tuple[str, float]], step_length: float,
                 contacts: Mapping[str, tuple[str | None, str | None]],
-                next_phases: Sequence[tuple[str, float]] | None = None) -> GaitTiming:
+                next_phases: Sequence[tuple[str, float]] | None = None,
+                next_step_length: float | None = None) -> GaitTiming:
     """Timing of the gait cycle of the physical leg that is leg 1 in the step ``phases``
     ((phase, duration s) in order, as :attr:`StepRecord.phases`) and leg 2 in
     ``next_phases`` (default: the same step again, a symmetric periodic gait).
 
-    ``step_length`` (m) of the step; ``contacts``: the walker's phase_contacts.
+    ``step_length`` (m) of the step, ``next_step_length`` (m) of the next (default: the
+    same); ``contacts``: the walker's phase_contacts.
     """
     nxt = list(phases if next_phases is None else next_phases)
     for name, _ in [*phases, *nxt]:
@@ -177,16 +183,19 @@ def gait_timing(phases: Sequence[tuple[str, float]], step_length: float,
     def pct(x):
         return None if x is None else 100.0 * x / T
 
+    stride = float(step_length) + float(step_length if next_step_length is None
+                                        else next_step_length)
     return GaitTiming(
         step_time_s=t_step, cycle_time_s=T, step_length_m=float(step_length),
         cadence_steps_min=60.0 * 2.0 / T if T > 0 else math.nan,
-        speed_m_s=2.0 * float(step_length) / T if T > 0 else math.nan,
+        speed_m_s=stride / T if T > 0 else math.nan,
         stance_pct=pct(stance), swing_pct=pct(T - stance),
         double_support_pct=tuple(pct(x) for x in ds), heel_strike_pct=0.0,
         foot_flat_pct=pct(foot_flat), heel_off_pct=pct(heel_off),
         toe_off_pct=pct(toe_off if toe_off is not None else T),
         stance_s=stance, swing_s=T - stance, double_support_s=tuple(ds),
-        phase_durations_s=tuple((name, float(d)) for name, d in phases))
+        phase_durations_s=tuple((name, float(d)) for name, d in phases),
+        next_step_length_m=None if next_step_length is None else float(next_step_length))
 
 
 def timing_or_none(compute):
@@ -200,8 +209,10 @@ def timing_or_none(compute):
 def step_timing(family: str, step, next_step=None) -> GaitTiming:
     """:func:`gait_timing` of a simulated :class:`~pdw_casadi.simulate.StepRecord` (and the
     next one; default: the step itself twice, as at a fixed point)."""
+    if next_step is None:
+        return gait_timing(step.phases, step.step_length, phase_contacts(family))
     return gait_timing(step.phases, step.step_length, phase_contacts(family),
-                       None if next_step is None else next_step.phases)
+                       next_step.phases, next_step.step_length)
 
 
 def simulation_timing(family: str, result) -> dict:

@@ -17,6 +17,8 @@ from collections.abc import Mapping
 
 import pandas as pd
 
+from .margins import spec_of
+
 #: what the digits 1 and 2 in the names mean
 LEGS = ("leg 1 = the stance leg of the step, leg 2 = its swing leg (roles, not left/right: "
         "the legs swap at every step)")
@@ -40,6 +42,8 @@ DESCRIBED = {
 #: compliance units by name prefix (stiffness, damping, angles)
 COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad"),
                        ("phi_", "rad"), ("ankle_rest", "rad"))
+#: body (anthropometry) units by name prefix: lengths, masses, inertias about the COM
+BODY_PREFIXES = (("l_", "m"), ("m_", "kg"), ("J_", "kg m^2"))
 
 
 #: SUFFIXES, the longest first (a name ends in the longest suffix it matches)
@@ -65,9 +69,10 @@ class Units:
         model = hs.model
         self.coordinates = {*model.q_names, *(f"d{n}" for n in model.q_names),
                             *model.state_names}
-        self.margins = {k: m.unit for k, m in hs.margin_specs.items()}
+        self.specs = hs.margin_specs
         self.outputs = {name: m.unit for ms in hs.phase_margins.values() for _, name, m in ms}
-        self.compliance = [n for n in model.parameter_names if n != "slope"]
+        # the per-leg walker's names carry the leg role (k_ankle@1); units go by the key
+        self.compliance = {n.partition("@")[0] for n in model.parameter_names if n != "slope"}
 
     def of(self, name: str) -> str | None:
         """The unit of a name (None: dimensionless or a label)."""
@@ -84,10 +89,14 @@ class Units:
             return self.outputs[name]
         if name.startswith(("margin:", "param:")):
             return self.of(name.split(":", 1)[1])
-        if name in self.margins:
-            return self.margins[name]
+        if (m := spec_of(name, self.specs)) is not None:
+            return m.unit
         if name in self.compliance:
-            return next((u for p, u in COMPLIANCE_PREFIXES if name.startswith(p)), None)
+            return next((u for p, u in (*COMPLIANCE_PREFIXES, *BODY_PREFIXES)
+                         if name.startswith(p)), None)
+        side, dot, key = name.partition(".")
+        if dot and side in ("left", "right"):  # a physical leg's value (stride parameters)
+            return self.of(key)
         if (u := _suffix_unit(name)) is not None:
             return u
         if name.startswith("F_") or "_N_" in name:

@@ -118,6 +118,8 @@ def make_files(base: Path) -> dict[str, str]:
     variant("unknown_anthro", cg, "m_h = 10.0", "m_h = 10.0\nm_arm = 2.0")
     variant("foot_open", hl, "l_fh = 0.03 ", "l_fh = 0.05 ")
     variant("hl_no_bounds_stiff", hl, "c_ankle = [0.05, 5.0]\n", "")
+    f["hl_asym"] = _write(base, "problems/hl_asym.toml",
+                          hl + "\n[compliance.right]\nk_ankle = 5.15\n")
     f["hl_stiff_damper"] = f["hl_no_bounds_stiff"]
     # override files
     f["state_number"] = _write(base, "over/state_number.json", "3.5")
@@ -321,6 +323,17 @@ def make_cases(f: dict[str, str]) -> list[Case]:
         sw(f"workers:{v}", [*base, "--workers", v])
     for v in ("-1", "nan", "0"):
         sw(f"tol:{v}", [*base, "--tol", v])
+    asym = ["--problem", f["hl_asym"]]
+    sw("asym:leg_mass_negative", [*asym, "--param", "right.m_s", "--from", "-1", "--to", "2"],
+       problem=None)
+    sw("asym:leg_value_above_bounds", [*asym, "--param", "right.k_ankle", "--from", "5",
+                                       "--to", "1000"], problem=None)
+    sw("asym:unknown_leg_key", [*asym, "--param", "right.m_arm", "--from", "1", "--to", "2"],
+       problem=None)
+    sw("asym:key_without_leg", [*asym, "--param", "k_ankle", "--from", "5", "--to", "6"],
+       problem=None)
+    sw("asym:with_gait", [*asym, "--from", "0.148", "--to", "0.149", "--gait",
+                          "female_fast.csv"], problem=None)
     sw("nogait:start_fails", [*hl, "--from", "0.148", "--to", "0.149", "--num", "2",
                               "--state", f["hl_state_scuffs"]], expect="nogait", problem=None)
 

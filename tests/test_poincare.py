@@ -73,3 +73,38 @@ def test_dp_matches_finite_differences():
     _, sim, x, p, m = _case("humanlike_6link")
     Jp, _ = _fd(lambda v: _run(sim, x, v), p, np.maximum(1.0, np.abs(p)))
     _close(m.dp, Jp)
+
+
+def test_margin_gradients_match_finite_differences():
+    """Each validity margin's smallest sample (a contact force, a CoP distance, the swing
+    toe's clearance, an impulse) equals the simulator's, and its exact gradient in the
+    section state and the compliance agrees with central differences of the simulator's
+    margins."""
+    pb = load_problem("humanlike_6link")
+    P = PoincareMap(pb)
+    x, p = pb.state_vector(), pb.parameter_vector()
+    r = P.evaluate(x, p, margin_gradients=True)
+
+    def margins(xx, pp):
+        return P.evaluate(xx, pp, jacobian=False, margins=True).sim.steps[0].margins
+
+    base = margins(x, p)
+    assert set(r.margin_grads) == set(P.hs.margin_specs)
+    for key, (v, _, _) in r.margin_grads.items():
+        assert abs(v - base[key]) <= 1e-12 * max(1.0, abs(v))
+    worst = 0.0
+    for which, v0, names in (("x", x, P.state_names), ("p", p, P.parameter_names)):
+        for j, name in enumerate(names):
+            if name == "slope" or name.startswith("theta_"):
+                h = 1e-6
+            else:
+                h = 1e-6 * max(1.0, abs(v0[j]))
+            e = np.zeros(v0.size)
+            e[j] = h
+            hi = margins(x + e, p) if which == "x" else margins(x, p + e)
+            lo = margins(x - e, p) if which == "x" else margins(x, p - e)
+            for key, (_, gx, gp) in r.margin_grads.items():
+                exact = (gx if which == "x" else gp)[j]
+                fd = (hi[key] - lo[key]) / (2 * h)
+                worst = max(worst, abs(fd - exact) / (1.0 + abs(exact)))
+    assert worst < 1e-4

@@ -134,3 +134,29 @@ def test_prosthesis_design_makes_the_gait_symmetric():
     assert abs(res.report["step_time_asymmetry_pct"]) < 1e-6
     assert res.compliance["k_ankle"] != pb.compliance["k_ankle"]
     assert res.problem.asymmetric
+
+
+def test_subject_continuation_keeps_the_gait_valid():
+    """The de Leva body of a bundled subject (longer shank, shorter thigh than Table 1's):
+    without holds the swing toe's clearance falls below its 5 mm requirement on the way;
+    with the validity margins held (exact margin gradients) the continuation reaches the
+    subject with a valid gait whose held clearance sits at its target and whose first phase
+    keeps its duration."""
+    from pdw_casadi.scaling import walker_for_subject
+
+    who = subject_row("WBDS09")
+    start = atlas_problem("humanlike_6link-female_fast-rho0.86")
+    fp0 = find_fixed_point(start)
+    assert fp0.converged and fp0.valid
+    res = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], start, fp0.state)
+    assert res.reached and res.fixed_point.valid
+    assert "II:min_clearance_toe2" in res.held
+    _, target = res.held["II:min_clearance_toe2"]
+    assert abs(res.fixed_point.margins["II:min_clearance_toe2"] - target) < 1e-8
+    assert target >= start.validity["min_clearance"]
+    body = res.problem.anthropometry
+    want = subject_anthropometry(who["mass_kg"], who["height_m"], who["sex"], start)
+    assert all(abs(body[k] - want[k]) < 1e-12 for k in want)
+    loose = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], start, fp0.state,
+                               options=DesignOptions())
+    assert not (loose.reached and loose.fixed_point.valid)

@@ -202,8 +202,10 @@ def test_fixed_point_cli_on_an_asymmetric_problem(tmp_path, capsys):
     assert len(curves) == 1 + 2 * 101 and (out / "leg_curves.png").stat().st_size > 0
 
 
-def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
-    from pdw_casadi.cli import sweep_main
+def test_one_leg_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
+    """The fit and a sweep with gait curves describe one leg: they refuse a walker whose
+    legs differ before writing anything (the plain sweep runs on the stride map)."""
+    from pdw_casadi.cli import fit_main, sweep_main
 
     path = tmp_path / "asym.toml"
     path.write_text(load_problem("humanlike_6link").source.read_text()
@@ -211,6 +213,91 @@ def test_one_step_commands_refuse_an_asymmetric_problem(tmp_path, capsys):
     out = tmp_path / "sw"
     with pytest.raises(SystemExit) as exc:
         sweep_main(["--problem", str(path), "--param", "slope", "--from", "0.148",
-                    "--to", "0.149", "--num", "2", "--out", str(out)])
+                    "--to", "0.149", "--num", "2", "--gait", "female_fast.csv",
+                    "--out", str(out)])
+    assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        fit_main(["--gait", "female_fast.csv", "--problem", str(path), "--out", str(out)])
     assert exc.value.code == 2 and "legs differ" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_stride_validity_reads_both_steps_margins(symmetric):
+    """The stride's margins (keys prefixed with the stance leg) are checked against the
+    walker's requirements like a step's: with equal legs every slack of each step equals
+    the step fixed point's, and a requirement above the gait's smallest normal force makes
+    both the step and the stride gait invalid."""
+    from pdw_casadi.fixed_point import validity_slacks
+
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    stride = find_stride_fixed_point(pb, x0=step.state, tol=1e-11, smap=smap)
+    step_slacks = validity_slacks(step.margins, pb)
+    stride_slacks = validity_slacks(stride.margins, pb, smap.hs)
+    assert len(stride_slacks) == 2 * len(step_slacks) > 0
+    for side in ("left", "right"):
+        for key, slack in step_slacks.items():
+            assert abs(stride_slacks[f"{side}.{key}"] - slack) < 1e-6
+    assert step.valid and stride.valid
+    weakest = min(v for k, v in step.margins.items() if ":min_N_" in k)
+    strict = pb.replace(validity={**pb.validity, "min_normal_force": weakest + 1.0})
+    smap_s = StrideMap(strict)
+    assert not find_fixed_point(strict, x0=step.state, tol=1e-11).valid
+    bad = find_stride_fixed_point(strict, x0=step.state, tol=1e-11, smap=smap_s)
+    assert bad.converged and not bad.valid and "min_N_" in bad.failure
+
+
+def test_sweep_cli_on_an_asymmetric_problem(tmp_path):
+    """pdw-sweep over one leg's value: the table's columns carry that value's unit and both
+    legs' margins; every row is a converged stride gait."""
+    import pandas as pd
+
+    from pdw_casadi.cli import sweep_main
+
+    pb = load_problem("humanlike_6link")
+    step = find_fixed_point(pb, tol=1e-11)
+    path = tmp_path / "asym.toml"
+    state = "\n".join(f"{n} = {float(v)!r}" for n, v in zip(pb.initial_state, step.state,
+                                                      strict=True))
+    text = pb.source.read_text()
+    head = text[:text.index("[initial_state]")]
+    tail = text[text.index("[numerics]"):]
+    path.write_text(f"{head}[initial_state]\n{state}\n\n{tail}\n[compliance.right]\n"
+                    f"k_ankle = 5.1545\n")
+    out = tmp_path / "sw"
+    assert sweep_main(["--problem", str(path), "--param", "right.k_ankle", "--from", "5.1545",
+                       "--to", "5.1045", "--num", "2", "--out", str(out)]) == 0
+    tab = pd.read_csv(out / "sweep.csv")
+    assert "right.k_ankle_N_m_per_rad" in tab.columns
+    assert tab["converged"].all() and len(tab) == 2
+    legs = {c.split(".")[0] for c in tab.columns if c.startswith("margin:") and "." in c}
+    assert legs == {"margin:left", "margin:right"}
+
+
+def test_stride_timing_per_leg(symmetric):
+    """Each leg's gait-cycle timing at a stride gait: its cycle lasts the stride, its speed
+    is the stride length over the stride time, its stance share equals the stride report's
+    (phase sums), and with equal legs both legs' timing is the step fixed point's."""
+    from pdw_casadi.stride import stride_timing
+    from pdw_casadi.timing import fixed_point_timing
+
+    pb, step = symmetric
+    smap = StrideMap(pb)
+    same = stride_timing(smap, step.state)
+    one = fixed_point_timing(pb, step.state, step.parameters)
+    for t in same.values():
+        assert abs(t.stance_pct - one.stance_pct) < 1e-9
+        assert np.allclose(t.double_support_pct, one.double_support_pct, atol=1e-9)
+        assert abs(t.speed_m_s - one.speed_m_s) < 1e-9
+    asym = _asymmetric(pb, c_knee_ext=1.21)
+    smap = StrideMap(asym)
+    fp = find_stride_fixed_point(asym, x0=step.state, smap=smap)
+    assert fp.converged
+    rep = stride_report(smap, fp.state, curves=False)
+    timing = stride_timing(smap, fp.state)
+    for side, t in timing.items():
+        assert abs(t.cycle_time_s - rep["stride_time_s"]) < 1e-12
+        assert abs(t.stride_length_m - rep["stride_length_m"]) < 1e-12
+        assert abs(t.speed_m_s - rep["speed_m_s"]) < 1e-12
+        assert abs(t.stance_pct - rep["legs"][side]["stance_pct"]) < 1e-9
+    assert abs(timing["left"].step_length_m - timing["right"].step_length_m) > 1e-6

@@ -208,3 +208,33 @@ def test_test_functions_change_sign_only_at_their_crossing():
     assert abs(phi_neimark_sacker(unit)) < 1e-12 and is_neimark_sacker(unit)
     saddle = mu(np.diag([2.0, 0.5, 0.3]))
     assert abs(phi_neimark_sacker(saddle)) < 1e-12 and not is_neimark_sacker(saddle)
+
+
+def test_sweep_of_one_legs_value_runs_on_the_stride_map():
+    """A walker whose right ankle is stiffer: its gait is a fixed point of the stride map,
+    swept over ``right.k_ankle`` down to the left leg's value, where the stride is two equal
+    steps: the stride's spectral radius is the square of the step map's and its period twice
+    the step time; every row is a stride fixed point and its margins carry the stance leg."""
+    from pdw_casadi.stride import StrideMap
+
+    pb = load_problem("humanlike_6link")
+    step = find_fixed_point(pb, tol=1e-11)
+    k = pb.compliance["k_ankle"]
+    stiff = pb.replace(legs={"right": {"compliance": {"k_ankle": k + 0.05}}}).with_state(
+        step.state)
+    assert parameter_index(stiff, "right.k_ankle") != parameter_index(stiff, "left.k_ankle")
+    with pytest.raises(ProblemError, match="no parameter"):
+        parameter_index(stiff, "k_ankle")  # both legs' keys are named by their leg
+    res = sweep(stiff, [k + 0.05, k], parameter="right.k_ankle")
+    tab = res.table
+    assert tab["converged"].all() and tab["valid"].all()
+    assert (tab["residual"] < 1e-10).all()
+    assert any(c.startswith("margin:right.") for c in tab.columns)
+    equal = tab.loc[np.isclose(tab["right.k_ankle"], k)].iloc[0]
+    assert abs(equal["spectral_radius"] - step.spectral_radius ** 2) < 1e-8
+    assert abs(equal["step_time_s"] - 2 * step.step_time_s) < 1e-9
+    stiffer = tab.loc[np.isclose(tab["right.k_ankle"], k + 0.05)].iloc[0]
+    smap = StrideMap(stiff)
+    x = np.array([stiffer[n] for n in smap.state_names])
+    r = smap.evaluate(x, jacobian=False)
+    assert np.abs(r.x_next - x).max() < 1e-10
