@@ -76,8 +76,11 @@ class WalkerFaces:
         return "phases " + ", ".join(parts) if len(parts) > 1 else \
             ("phase " + parts[0] if parts else "")
 
-    def transition_from(self, phase: str) -> TransitionFace | None:
-        return next((t for t in self.transitions if t.source == phase), None)
+    def transition_from(self, phase: str, target: str | None = None) -> TransitionFace | None:
+        """The transition leaving ``phase`` (into ``target`` when given: a phase may end
+        in several, e.g. heel strike or heel off)."""
+        return next((t for t in self.transitions if t.source == phase
+                     and (target is None or t.target == target)), None)
 
     def instant_label(self, transition: str) -> str:
         return self.instant_labels.get(transition, transition)

@@ -288,7 +288,7 @@ def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
     rows = {f"{sec_label}+": 0}
     ph = seg["phase"].astype(str).to_numpy()
     for i in np.flatnonzero(ph[1:] != ph[:-1]):
-        tr = faces.transition_from(ph[i])
+        tr = faces.transition_from(ph[i], ph[i + 1])
         label = faces.instant_label(tr.name) if tr else f"{ph[i]}->{ph[i + 1]}"
         if tr is not None and tr.impact:
             rows[f"{label}-"], rows[f"{label}+"] = int(i), int(i) + 1

@@ -249,6 +249,15 @@ class PoincareMap:
             if key not in mins or v[j] < mins[key][0]:
                 mins[key] = (float(v[j]), vx[j] @ S + vp[j] @ sens.Sp)
 
+    def jacobian(self, x, p=None):
+        """(P(x, p), dP/dx, dP/dp) with exact AD derivatives."""
+        r = self.evaluate(x, p)
+        return r.x_next, r.dx, r.dp
+
+    def as_casadi(self) -> ca.Function:
+        """P as a CasADi function of (x, p) with exact Jacobian (for NLPs and rootfinders)."""
+        return _PoincareCallback("poincare_map", self)
+
 
 class _PhaseClock:
     """Start time of each plan segment, and of the phase it belongs to with that phase's
@@ -268,15 +277,6 @@ class _PhaseClock:
                 for k in run:
                     self.phase_start[k], self.duration[k] = t0, t - t0
                 run = []
-
-    def jacobian(self, x, p=None):
-        """(P(x, p), dP/dx, dP/dp) with exact AD derivatives."""
-        r = self.evaluate(x, p)
-        return r.x_next, r.dx, r.dp
-
-    def as_casadi(self) -> ca.Function:
-        """P as a CasADi function of (x, p) with exact Jacobian (for NLPs and rootfinders)."""
-        return _PoincareCallback("poincare_map", self)
 
 
 class _PoincareCallback(ca.Callback):

@@ -7,9 +7,11 @@ double support, judged by the fit.
 
 runs ``pdw-fit --gait GAIT --problem P --out OUT/P[_timing]`` for every problem (one after
 the other) and writes ``OUT/study.md`` and ``OUT/study.csv``: per fit the double support of
-each period and the stance (% of the cycle), toe off, cadence, knee/hip/thigh R^2, the
-spectral radius, whether it is stable and valid, and the tightest validity margins (what
-binds). A fit already in OUT/P is read, not re-run (``--rerun`` to redo).
+each period, the stance and the heel off (% of the cycle; heel off is 50 % where the
+stance heel lifts at the other heel's strike, earlier only with the forefoot rocker of
+humanlike_6link_heeloff), toe off, cadence, knee/hip/thigh R^2, the spectral radius,
+whether it is stable and valid, and the tightest validity margins (what binds). A fit
+already in OUT/P is read, not re-run (``--rerun`` to redo).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ("humanlike_6link", "humanlike_6link_ankle_load", "humanlike_6link_ankle_quasistiff",
-         "humanlike_6link_ankle_clutch", "humanlike_6link_ankle")
+         "humanlike_6link_ankle_clutch", "humanlike_6link_ankle", "humanlike_6link_heeloff")
 
 
 def _binding(summary: dict, problem: str, n: int = 2) -> str:
@@ -44,7 +46,8 @@ def row(name: str, out: Path, problem: str) -> dict:
     t = s.get("timing") or {}
     ds = t.get("double_support_pct") or [float("nan")] * 2
     return {"fit": name, "double_support_pct": ds[0], "double_support_2_pct": ds[-1],
-            "stance_pct": t.get("stance_pct"), "toe_off_pct": t.get("toe_off_pct"),
+            "stance_pct": t.get("stance_pct"), "heel_off_pct": t.get("heel_off_pct"),
+            "toe_off_pct": t.get("toe_off_pct"),
             "cadence_steps_min": t.get("cadence_steps_min"), "speed_m_s": t.get("speed_m_s"),
             "r2_knee": s.get("r2_knee"), "r2_hip": s.get("r2_hip"),
             "r2_thigh": s.get("r2_thigh"), "spectral_radius": s.get("spectral_radius"),

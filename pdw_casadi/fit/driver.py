@@ -143,7 +143,10 @@ class FitSolver:
     bound rho_32 <= max_radius - radius_margin (:class:`StabilityRow`).
     """
 
-    def __init__(self, nlp, human, opts: FitOptions, log=print):
+    def __init__(self, nlp, human, opts: FitOptions, log=print, extra=None):
+        """``extra(nlp) -> MX``: a further objective term of the caller's (e.g. the heel-off
+        margin of scripts/heeloff_seed.py); like the timing term it is left out of the
+        reported objective, which stays the curve part."""
         self.nlp, self.opts, self.log = nlp, opts, log
         errs = curve_errors(nlp, human, opts.targets())
         rows, obj, self.E, self.ss = [], 0, {}, {}
@@ -159,6 +162,11 @@ class FitSolver:
             term = opts.timing_weight * ((stance - target) / 10.0) ** 2
             obj = obj + term
             self.timing = ca.Function("timing_term", [nlp.w], [term])
+        self.extra = None
+        if extra is not None:
+            term = extra(nlp)
+            obj = obj + term
+            self.extra = ca.Function("extra_term", [nlp.w], [term])
         self.e = ca.vertcat(*[ca.vec(E) for E in self.E.values()])
         self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(e) for e, _ in
                                                              errs.values()])])
@@ -215,6 +223,8 @@ class FitSolver:
         if self.timing is not None:
             # the curve part: what the re-simulated R^2 is checked against
             f -= float(self.timing(x[: self.n_w]))
+        if self.extra is not None:
+            f -= float(self.extra(x[: self.n_w]))
         return {"w": x[: self.n_w], "objective": f,
                 "status": st["return_status"],
                 "iterations": int(st["iter_count"]), "wall_time_s": time.perf_counter() - t0,

@@ -10,7 +10,12 @@ a module here with a registered ``build``, imported below.
 
 from __future__ import annotations
 
-from . import humanlike_6link, humanlike_6link_ankle, point_foot  # noqa: F401 (registers)
+from . import (  # noqa: F401 (registers)
+    humanlike_6link,
+    humanlike_6link_ankle,
+    humanlike_6link_heeloff,
+    point_foot,
+)
 from .registry import FAMILIES, Family, get_family, register
 
 __all__ = ["FAMILIES", "Family", "get_family", "register"]

@@ -37,6 +37,9 @@ LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": LEG_ANTHROPOMETRY_KE
 Q_NAMES = ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1")
 #: the swap of legs at the Poincare section: new coordinate i is old coordinate SWAP[i]
 SWAP = (3, 2, 1, 0, 5, 4)
+#: m, the height the stance heel must have risen in the toe-rocker phase before its coming
+#: back down counts (it leaves the ground at rest, so its height starts at 0 with rate 0)
+HEEL_DOWN_ARM = 1e-6
 
 # -- faces of the walker for plots and reports (see pdw_casadi.faces) ---------------------
 PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
@@ -88,6 +91,8 @@ def build(problem, ext=None) -> WalkerModel:
     ``ext``: an extension of the passive elements (extra compliance keys, mode flags,
     torque elements, events and mode rules at the transitions), e.g.
     :data:`pdw_casadi.walkers.humanlike_6link_ankle.EXTENSION`; None: the paper's walker.
+    An extension whose ``forefoot_rocker`` is true adds the toe-rocker phase ``II_toe``
+    (:mod:`pdw_casadi.walkers.humanlike_6link_heeloff`).
     """
     a = dict(problem.anthropometry)
     comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
@@ -192,6 +197,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
     contact_I = ContactSet("I", ca.vertcat(toe2, xt, yt, flat1),
                            ("toe2_x", "toe2_y", "toe1_x", "toe1_y", "flat1"))
     contact_II = ContactSet("II", ca.vertcat(xt, yt, flat1), ("toe1_x", "toe1_y", "flat1"))
+    contact_toe_rocker = ContactSet("II_toe", ca.vertcat(xt, yt), ("toe1_x", "toe1_y"))
     contact_III = ContactSet("III", ca.vertcat(xt, yt, heel2),
                              ("toe1_x", "toe1_y", "heel2_x", "heel2_y"))
     contact_foot_strike = ContactSet("foot_strike", ca.vertcat(xt, yt, toe2, lf2 * ca.cos(qf2)),
@@ -259,16 +265,51 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
     lam = ph2.lam
     N1, m1a, m1b, outs2 = flat_foot(lam[0], lam[1], lam[2], qf1, "foot1")
     ph2.outputs = {**outs2, "clearance_toe2": _height(toe2, n)}
+    rocker = bool(getattr(ext, "forefoot_rocker", False))
+    if rocker:
+        # the centre of pressure reaching the toe is the heel-off guard, not a broken
+        # assumption: only its distance from the heel is a validity margin
+        del ph2.outputs["copmargin_foot1"]
+        ph2.outputs["copmargin_heel_foot1"] = lf - outs2["cop_foot1_from_toe"]
+    heel_strike_event = Event(
+        "heel_strike", _height(heel2, n), -1, GUARD, "swing heel reaches the ground",
+        require=ca.dot(heel2 - heel1, t_slope), require_reason="heel_strike_behind")
+    scuff_event = Event("toe_scuff", _height(toe2, n), -1, FAILURE, "swing toe hits the ground",
+                        arm_above=1e-4)
+    # with the forefoot rocker the centre of pressure reaching the stance toe lifts the heel
+    # (the flat-foot couple passes through zero: no impact) instead of breaking the gait
+    cop_toe = (Event("heel_off", m1a, -1, GUARD, "centre of pressure reaches the stance toe: "
+                     "the stance heel lifts") if rocker else
+               Event("cop1_at_toe", m1a, -1, FAILURE,
+                     "centre of pressure reaches the stance toe"))
     ph2.events = [
-        Event("heel_strike", _height(heel2, n), -1, GUARD, "swing heel reaches the ground",
-              require=ca.dot(heel2 - heel1, t_slope), require_reason="heel_strike_behind"),
-        Event("toe_scuff", _height(toe2, n), -1, FAILURE, "swing toe hits the ground",
-              arm_above=1e-4),
+        heel_strike_event,
+        scuff_event,
         Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
-        Event("cop1_at_toe", m1a, -1, FAILURE, "centre of pressure reaches the stance toe"),
+        cop_toe,
         Event("cop1_at_heel", m1b, -1, FAILURE, "centre of pressure reaches the stance heel"),
         *common_events,
     ]
+    phases = [ph1, ph2]
+    if rocker:
+        # Phase II_toe (forefoot rocker): single stance on the stance toe, heel off, swing
+        ph2t = make_phase(sysm, F_q, "II_toe", contact_toe_rocker)
+        lam = ph2t.lam
+        N_toe1 = ca.dot(lam[0:2], n)
+        heel1_h = _height(heel1, n)
+        ph2t.outputs = {"N_toe1": N_toe1, "F_toe1_x": lam[0], "F_toe1_y": lam[1],
+                        "clearance_toe2": _height(toe2, n)}
+        ph2t.events = [
+            heel_strike_event,
+            scuff_event,
+            Event("toe1_lift", N_toe1, -1, FAILURE, "stance toe normal force reaches zero"),
+            # the heel leaves the ground at rest (height 0, rate 0): it counts as coming back
+            # down only once it has risen HEEL_DOWN_ARM (m)
+            Event("heel1_down", heel1_h, -1, FAILURE, "stance heel comes back down onto "
+                  "the ground", arm_above=HEEL_DOWN_ARM),
+            *common_events,
+        ]
+        phases.append(ph2t)
     # Phase III: trailing toe and leading heel pivots
     ph3 = make_phase(sysm, F_q, "III", contact_III)
     lam = ph3.lam
@@ -287,13 +328,26 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
     # transitions: toe-off (no impact, arms the swing knee), heel strike, foot strike + swap
     toe_off = make_transition(sysm, "toe_off", "I", "II", None,
                               mode_after=lambda md_: {**md_, "armed2": 1.0})
-    heel = make_transition(sysm, "heel_strike", "II", "III", contact_III)
+    heel = make_transition(sysm, "heel_strike", "II", "III", contact_III,
+                           guard="heel_strike" if rocker else None)
     qdp = heel.qd_plus
     heel.checks = {
         "impulse_toe1": ca.dot(heel.impulse[0:2], n),
         "impulse_heel2": ca.dot(heel.impulse[2:4], n),
         "heel1_rise_speed": ca.dot(ca.jtimes(heel1, q, qdp), n),
     }
+    transitions = [toe_off, heel]
+    if rocker:
+        # heel off: the couple of the flat foot is zero there, so no impact; heel strike
+        # from the toe rocker: the same impact as from phase II (trailing toe and leading
+        # heel on the ground after it), the trailing heel already up
+        transitions.append(make_transition(sysm, "heel_off", "II", "II_toe", None,
+                                           guard="heel_off"))
+        heel_t = make_transition(sysm, "heel_strike_toe", "II_toe", "III", contact_III,
+                                 guard="heel_strike")
+        heel_t.checks = {"impulse_toe1": ca.dot(heel_t.impulse[0:2], n),
+                         "impulse_heel2": ca.dot(heel_t.impulse[2:4], n)}
+        transitions.append(heel_t)
     foot = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike, ends_step=True)
     imp = foot.impulse
     N_imp = ca.dot(imp[2:4], n)
@@ -318,8 +372,9 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
                 "armed2": 0.0}
 
     foot.mode_after = after_foot_strike
+    transitions.append(foot)
     if ext:
-        for tr in (toe_off, heel, foot):
+        for tr in transitions:
             tr.mode_after = ext.mode_rule(tr.name, tr.mode_after)
 
     # section state <-> full state
@@ -362,7 +417,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
         initial_mode={"eng1": 1.0, "eng2": 0.0, "flex1": 0.0, "flex2": 0.0, "armed2": 0.0,
                       **(ext.initial_mode if ext else {})},
         F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
-        phases=[ph1, ph2, ph3], transitions=[toe_off, heel, foot],
+        phases=[*phases, ph3], transitions=transitions,
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=STATE_KEYS, parameter_names=tuple(parameter_names),
         step_length=ca.dot(toe2 - toe1, t_slope), common_outputs=common, points=points,

@@ -55,6 +55,9 @@ class AnkleExtension:
 
     compliance_keys: tuple[str, ...] = EXTRA_COMPLIANCE
     mode_keys: tuple[str, ...] = EXTRA_MODES
+    #: the forefoot rocker (heel off in single support, phase ``II_toe``): see
+    #: :mod:`pdw_casadi.walkers.humanlike_6link_heeloff`
+    forefoot_rocker: bool = False
     #: at the section (just after foot strike): the trailing ankle's clutch is engaged (it
     #: engaged in the previous stance), the leading one armed, no loading damper
     initial_mode = {"load2": 0.0, "clutch1": 0.0, "clutch2": 1.0, "armc1": 1.0}
@@ -84,8 +87,10 @@ class AnkleExtension:
                 return new
             if name == "toe_off":  # the trailing toe leaves: its clutch releases
                 return {**new, "clutch2": 0.0}
-            if name == "heel_strike":  # loading response of the leading ankle begins
+            if name in ("heel_strike", "heel_strike_toe"):  # loading response begins
                 return {**new, "load2": 1.0}
+            if name != "foot_strike":  # heel off: the stance ankle's elements carry on
+                return new
             # foot strike, legs swap: the old stance leg (its clutch engaged) trails
             if md_["clutch1"] != 1:
                 return "clutch_not_engaged"
