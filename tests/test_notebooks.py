@@ -17,7 +17,7 @@ NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
                                           ("02_fit_your_gait.ipynb", 1),
                                           ("03_slope_sweep.ipynb", 3),
                                           ("04_humanlike_timing.ipynb", 1),
-                                          # two IPOPT stride NLP solves and a subject
+                                          # a stride NLP design (IPOPT) and a subject
                                           # continuation: about 2 min, so in the slow run
                                           pytest.param("05_prosthesis_design.ipynb", 1,
                                                        marks=pytest.mark.slow)])
