@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -222,8 +222,7 @@ class _MarginHolds:
         self.pmap, self.headroom = pmap, headroom
         self._slacks = lambda m: validity_slacks(m, pmap.problem, pmap.hs)
         start = self._margins(x0, theta0)
-        need = {k: v - s for k, v in start.items()
-                if (s := self._slacks({k: v}).get(k)) is not None}
+        need = {k: start[k] - s for k, s in self._slacks(start).items()}
         # a margin required > 0 only (an impulse) takes its own size at the start as scale
         self.need = need
         self.scale = {k: (abs(n) if n > 0 else max(abs(start[k]), 1e-12))
@@ -311,8 +310,7 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
                     cand, now, grads = again, holds.extra(extra), True
                 else:
                     holds.release(broken)
-                    cand = again
-                    cand.converged = False
+                    cand = replace(again, converged=False)
         if cand.converged:
             lam, last, tangent = new, cand, None
             path.append((lam, cand.state, cand.theta))
