@@ -92,6 +92,8 @@ class ProsthesisResult:
     wall_time_s: float
     #: the NLP design's solves, one per homotopy step (:class:`DesignSolve`)
     solves: list = field(default_factory=list)
+    #: the prosthetic leg's designed mass distribution (DesignNLPOptions.mass_distribution)
+    mass_distribution: dict = field(default_factory=dict)
 
     @property
     def step_radius(self) -> float:
@@ -214,7 +216,21 @@ class DesignNLPOptions:
     headroom_s: float = 0.0
     #: shortest segment (s): the event order is the NLP's gait pattern (ShootingNLP.bounds)
     t_min_s: float = 1e-3
+    #: the prosthetic leg's body values designed beside its compliance (among l_sc, J_s,
+    #: l_fc, J_f: where a prosthetist places the mass; the masses stay (1 - lighter) x the
+    #: sound leg's), each within ``mass_distribution_bounds`` x the sound leg's value and
+    #: counted in the least-change objective like the compliance; () : the inertias scale
+    #: with the mass and the COM positions stay the sound leg's
+    mass_distribution: tuple = ()
+    mass_distribution_bounds: dict = field(default_factory=lambda: dict(
+        l_sc=(0.6, 1.3), J_s=(0.3, 1.5), l_fc=(0.5, 1.5), J_f=(0.3, 1.5)))
+    #: the slope free too (the walker's energy supply; shared by both legs, not in the
+    #: objective; bounds of ShootingNLP.bounds)
+    free_slope: bool = False
     verbose: bool = False
+    #: log after every solve what binds there (rows and bounds by |multiplier|) and the
+    #: IPOPT inf_pr / inf_du trend
+    diagnose: bool = False
     ipopt: dict = field(default_factory=dict)
 
 
@@ -242,10 +258,12 @@ class StrideDesignSolver:
 
     ``pinned`` (name -> value): NLP parameters held at a value other than the one the NLP
     was built at (its unknown with equal bounds): a homotopy step builds the NLP at the
-    last answer, whose gait simulates, and pins the body values at the next mass."""
+    last answer, whose gait simulates, and pins the body values at the next mass.
+    ``bounds`` (name -> (lo, hi), SI): bounds of free NLP parameters the problem's
+    compliance bounds do not cover (the prosthesis's mass distribution)."""
 
     def __init__(self, nlp, free: Sequence[str], sound: dict, opts: DesignNLPOptions,
-                 pinned: dict | None = None, log=print):
+                 pinned: dict | None = None, log=print, bounds: dict | None = None):
         from .fit.driver import _nlp_functions
         from .fit.stability import StabilityRow
 
@@ -269,6 +287,9 @@ class StrideDesignSolver:
             nlp.w, obj, ca.vertcat(nlp.g, rows), self.row, self.n_w)
         self.lbx, self.ubx = nlp.bounds(t_min=opts.t_min_s)
         ns = nlp.xs.shape[0]
+        for name, (lo, hi) in (bounds or {}).items():
+            j = nlp.free.index(name)
+            self.lbx[ns + j], self.ubx[ns + j] = lo / nlp.p_scale[j], hi / nlp.p_scale[j]
         for name, v in (pinned or {}).items():
             j = nlp.free.index(name)
             self.lbx[ns + j] = self.ubx[ns + j] = v / nlp.p_scale[j]
@@ -294,10 +315,83 @@ class StrideDesignSolver:
         sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         st = solver.stats()
         w = sol["x"].full().ravel()
+        hist = st.get("iterations", {})
         return {"w": w, "status": st["return_status"], "iterations": int(st["iter_count"]),
                 "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
                 "success": st["return_status"] in ("Solve_Succeeded",
-                                                   "Solved_To_Acceptable_Level")}
+                                                   "Solved_To_Acceptable_Level"),
+                "g": sol["g"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
+                "lam_x": sol["lam_x"].full().ravel(),
+                "inf_pr": list(hist.get("inf_pr", [])), "inf_du": list(hist.get("inf_du", []))}
+
+    def row_names(self) -> list[str]:
+        """Names of the NLP's rows: the shooting rows, the two asymmetry rows, stability."""
+        return [*self.nlp.g_names, "asymmetry:step_length", "asymmetry:step_time",
+                "stability:rho32"]
+
+    def binding(self, out: dict, top: int = 10, tol: float = 1e-6) -> list[dict]:
+        """The rows and bounds that bind at a solve's answer ``out`` (:meth:`solve`), by
+        name: the largest |multiplier| of the group, the smallest distance to its bound
+        (in the row's units), how many of its rows are within ``tol`` of a bound, and the
+        largest violation; sorted by |multiplier|, ``top`` of them. Unknowns at a bound are
+        named ``bound:T[k] phase`` (durations) and ``bound:<parameter>``."""
+        names = self.row_names()
+        g, lam = out["g"], out["lam_g"]
+        w, lam_x = out["w"], out["lam_x"]
+        rows = []
+        for i, name in enumerate(names):
+            gap = min(g[i] - self.lbg[i], self.ubg[i] - g[i])
+            rows.append((name, abs(lam[i]), gap))
+        nlp = self.nlp
+        ns, nf = nlp.xs.shape[0], len(nlp.free)
+        for j, name in enumerate(nlp.free):
+            i = ns + j
+            if self.lbx[i] == self.ubx[i]:
+                continue  # pinned body values
+            gap = min(w[i] - self.lbx[i], self.ubx[i] - w[i]) * nlp.p_scale[j]
+            rows.append((f"bound:{name}", abs(lam_x[i]), gap))
+        for k, s in enumerate(nlp.specs):
+            i = ns + nf + k
+            rows.append((f"bound:T[{k}] step {s.step} phase {s.phase}", abs(lam_x[i]),
+                         min(w[i] - self.lbx[i], self.ubx[i] - w[i])))
+        groups: dict[str, dict] = {}
+        for name, lm, gap in rows:
+            d = groups.setdefault(name, {"name": name, "multiplier": 0.0, "gap": math.inf,
+                                         "active": 0, "violation": 0.0})
+            d["multiplier"] = max(d["multiplier"], lm)
+            d["gap"] = min(d["gap"], gap)
+            d["active"] += int(abs(gap) <= tol)
+            d["violation"] = max(d["violation"], -gap)
+        out_rows = sorted(groups.values(), key=lambda d: -d["multiplier"])
+        return [d for d in out_rows if d["multiplier"] > 0 or d["active"]][:top]
+
+
+def sound_problem(problem: Problem, side: str = "right") -> tuple[Problem, float]:
+    """(the symmetric walker with the sound leg's body and compliance on both sides, the
+    mass reduction of ``problem``'s ``side`` leg) for a walker made by
+    :func:`prosthetic_problem` (shank and foot mass and inertia scaled by one factor)."""
+    other = "left" if side == "right" else "right"
+    lighter = 1.0 - lighter_mass(problem, side)
+    a, b = problem.leg_values(side)[1], problem.leg_values(other)[1]
+    for k in ("m_s", "m_f"):  # inertias and COM positions may have been designed
+        if abs(a[k] - b[k] * (1.0 - lighter)) > 1e-9 * abs(b[k]):
+            raise ProblemError(f"{problem.name}: {side}.{k} is not the {other} leg's x "
+                               f"{1 - lighter:.6f}: not a prosthetic_problem walker")
+    sound = problem.replace(legs={})
+    if sound.leg_values("left") != problem.leg_values(other):
+        raise ProblemError(f"{problem.name}: the sound leg must be the left one")
+    return sound, lighter
+
+
+def _log_diagnosis(solver: StrideDesignSolver, out: dict, log) -> None:
+    """What binds at a solve's answer and how IPOPT got there (one line each)."""
+    pr, du = out["inf_pr"], out["inf_du"]
+    if pr:
+        at = sorted({0, *range(0, len(pr), max(1, len(pr) // 8)), len(pr) - 1})
+        log("  inf_pr/inf_du: " + ", ".join(f"{i}: {pr[i]:.1e}/{du[i]:.1e}" for i in at))
+    for d in solver.binding(out):
+        log(f"  binding {d['name']}: |lambda| {d['multiplier']:.3g}, gap {d['gap']:.3g}, "
+            f"{d['active']} active, violation {max(d['violation'], 0.0):.2g}")
 
 
 def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
@@ -315,24 +409,33 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     from .shooting import ShootingNLP
 
     t0 = time.perf_counter()
-    if problem.asymmetric:
-        raise ProblemError(f"{problem.name}: start from a symmetric walker")
     opts = options or DesignNLPOptions()
     log = log or (lambda msg: None)
+    start, done0 = problem, 0.0
+    if problem.asymmetric:  # continue an earlier design (its own TOML)
+        problem, done0 = sound_problem(problem, side)
     names = list(physical_parameter_names(problem))
     other = "left" if side == "right" else "right"
+    dist = [f"{side}.{k}" for k in opts.mass_distribution]
     keys = [f"{side}.{k}" for k in free]
     theta_sound = physical_parameter_vector(problem)
-    sound = {f"{side}.{k}": float(theta_sound[names.index(f"{other}.{k}")]) for k in free}
+    sound = {f"{side}.{k}": float(theta_sound[names.index(f"{other}.{k}")])
+             for k in (*free, *opts.mass_distribution)}
+    dist_bounds = {f"{side}.{k}": tuple(f * sound[f"{side}.{k}"]
+                                        for f in opts.mass_distribution_bounds[k])
+                   for k in opts.mass_distribution}
+    shared = ("slope",) if opts.free_slope else ()
     if x0 is None:
-        fp0 = find_stride_fixed_point(problem, tol=1e-10)
+        fp0 = find_stride_fixed_point(start, tol=1e-10)
         if not fp0.converged:
-            raise ProblemError(f"{problem.name}: no periodic gait near its initial state")
+            raise ProblemError(f"{start.name}: no periodic gait near its initial state")
         x0 = fp0.state
     x = np.asarray(x0, float)
-    body = [f"{side}.{k}" for k in LIGHTER_KEYS]
-    path, solves = [(0.0, x.copy(), theta_sound.copy())], []
-    theta = theta_sound.copy()
+    # the body values held at (1 - lighter) x the sound leg's: the masses, and the
+    # inertias unless the mass distribution is designed
+    body = [f"{side}.{k}" for k in LIGHTER_KEYS if k not in opts.mass_distribution]
+    theta = physical_parameter_vector(start)
+    path, solves = [(done0, x.copy(), theta.copy())], []
     fp = report = target = None
     ok = False
     step = min(opts.first_step, lighter)
@@ -343,10 +446,14 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         theta_t = physical_parameter_vector(target)
         # built at the last answer (its gait simulates; at the lighter leg with the old
         # compliance it may not), the body values pinned at the new mass
-        nlp = ShootingNLP.stride(target, x, theta, free=(*keys, *body),
+        nlp = ShootingNLP.stride(target, x, theta, free=(*keys, *dist, *body, *shared),
                                  sample_stride=opts.sample_stride, headroom_s=opts.headroom_s)
         pinned = {k: float(theta_t[names.index(k)]) for k in body}
-        out = StrideDesignSolver(nlp, keys, sound, opts, pinned, log=log).solve(nlp.w0)
+        solver = StrideDesignSolver(nlp, (*keys, *dist), sound, opts, pinned, log=log,
+                                    bounds=dist_bounds)
+        out = solver.solve(nlp.w0)
+        if opts.diagnose:
+            _log_diagnosis(solver, out, log)
         u = nlp.unpack(out["w"])
         fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=1e-10,
                                      fallback=False, smap=nlp.stride_map)
@@ -385,9 +492,10 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                                  smap=smap)
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
     comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
+    mass = {k: float(theta[names.index(f"{side}.{k}")]) for k in opts.mass_distribution}
     good = (ok and fp.converged and fp.valid
             and fp.spectral_radius <= opts.max_stride_radius
             and abs(report["step_length_asymmetry_pct"]) < 1.0
             and abs(report["step_time_asymmetry_pct"]) < 1.0)
     return ProsthesisResult(designed, fp, report, comp, path, bool(good),
-                            time.perf_counter() - t0, solves)
+                            time.perf_counter() - t0, solves, mass)

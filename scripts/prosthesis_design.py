@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from pdw_casadi.problem import load_problem
 from pdw_casadi.prosthesis import (
     START_ENTRY,
     DesignNLPOptions,
@@ -46,19 +47,48 @@ def main(argv=None) -> int:
                     help="continuation: symmetry conditions only (do not hold the first "
                          "phase's duration)")
     ap.add_argument("--out", help="write the designed walker to this TOML file")
+    ap.add_argument("--start", metavar="FILE.toml",
+                    help="NLP: continue the design of a walker written by --out (its "
+                         "lighter leg, compliance and gait) instead of an atlas entry")
+    ap.add_argument("--diagnose", action="store_true",
+                    help="NLP: after every solve, log what binds (rows and bounds by "
+                         "|multiplier|) and the IPOPT inf_pr/inf_du trend")
+    ap.add_argument("--max-iter", type=int, default=DesignNLPOptions.max_iter,
+                    help="IPOPT iterations per NLP solve (default: %(default)s)")
+    ap.add_argument("--mass-distribution", default="",
+                    help="NLP: comma-separated body values of the prosthetic leg designed "
+                         "beside its compliance (among l_sc,J_s,l_fc,J_f; bounds in "
+                         "DesignNLPOptions.mass_distribution_bounds)")
+    ap.add_argument("--max-step", type=float, default=DesignNLPOptions.max_step,
+                    help="NLP: largest mass homotopy step (default: %(default)s)")
+    ap.add_argument("--max-solves", type=int, default=DesignNLPOptions.max_solves,
+                    help="NLP: at most this many NLP solves (default: %(default)s)")
+    ap.add_argument("--free-slope", action="store_true",
+                    help="NLP: the slope free too (the walker's energy supply)")
+    ap.add_argument("--t-min", type=float, default=DesignNLPOptions.t_min_s,
+                    help="NLP: shortest gait segment, s (default: %(default)s)")
     args = ap.parse_args(argv)
-    base = atlas_problem(args.entry)
+    base = load_problem(args.start) if args.start else atlas_problem(args.entry)
     t0 = time.perf_counter()
+    dist = tuple(k for k in args.mass_distribution.split(",") if k)
     if args.method == "nlp":
         res = design_prosthesis_nlp(base, lighter=args.lighter,
-                                    options=DesignNLPOptions(first_step=args.first_step))
+                                    options=DesignNLPOptions(first_step=args.first_step,
+                                                            diagnose=args.diagnose,
+                                                            max_iter=args.max_iter,
+                                                            mass_distribution=dist,
+                                                            free_slope=args.free_slope,
+                                                            t_min_s=args.t_min,
+                                                            max_step=args.max_step,
+                                                            max_solves=args.max_solves))
         reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
     else:
         res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
         reached = f"lambda = {res.path[-1][0]:.4f} ({len(res.path)} points)"
     took = time.perf_counter() - t0
     rep, fp = res.report, res.fixed_point
-    print(f"start: atlas entry {args.entry}; target: right shank+foot {100 * args.lighter:g} % "
+    where = args.start or f"atlas entry {args.entry}"
+    print(f"start: {where}; target: right shank+foot {100 * args.lighter:g} % "
           f"lighter; method {args.method}")
     print(f"reached {reached}: right shank+foot {100 * (1 - lighter_mass(res.problem)):.2f} % "
           f"lighter; target met (stable, valid, symmetric): {res.reached}")
@@ -79,6 +109,10 @@ def main(argv=None) -> int:
           f"valid: {fp.valid}")
     print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
                                                  for k, v in res.compliance.items()))
+    if res.mass_distribution:
+        print("prosthetic-leg mass distribution:", ", ".join(
+            f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
+    print(f"slope {res.problem.slope:.5f} rad")
     for sv in res.solves:
         print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
               f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}")
