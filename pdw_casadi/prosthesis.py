@@ -330,16 +330,19 @@ class StrideDesignSolver:
                 "stability:rho32"]
 
     def binding(self, out: dict, top: int = 10, tol: float = 1e-6) -> list[dict]:
-        """The rows and bounds that bind at a solve's answer ``out`` (:meth:`solve`), by
-        name: the largest |multiplier| of the group, the smallest distance to its bound
-        (in the row's units), how many of its rows are within ``tol`` of a bound, and the
-        largest violation; sorted by |multiplier|, ``top`` of them. Unknowns at a bound are
-        named ``bound:T[k] phase`` (durations) and ``bound:<parameter>``."""
+        """The inequality rows, asymmetry rows and bounds that bind at a solve's answer
+        ``out`` (:meth:`solve`), by name: the largest |multiplier| of the group, the
+        smallest distance to its bound (in the row's units), how many of its rows are
+        within ``tol`` of a bound, and the largest violation; sorted by |multiplier|,
+        ``top`` of them. Unknowns at a bound are named ``bound:T[k] ...`` (durations)
+        and ``bound:<parameter>``."""
         names = self.row_names()
         g, lam = out["g"], out["lam_g"]
         w, lam_x = out["w"], out["lam_x"]
         rows = []
         for i, name in enumerate(names):
+            if self.lbg[i] == self.ubg[i] and not name.startswith("asymmetry"):
+                continue  # the shooting equalities (continuity, events, impacts) always bind
             gap = min(g[i] - self.lbg[i], self.ubg[i] - g[i])
             rows.append((name, abs(lam[i]), gap))
         nlp = self.nlp
