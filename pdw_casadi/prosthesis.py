@@ -24,6 +24,20 @@ leg's compliance from the sound leg's, sum ((c_prosthetic - c_sound) / c_sound)^
 reached in ``mass_steps`` homotopy steps, each warm-started from the last, and every answer
 is checked by re-simulation on the stride map (fixed point, spectral radius, validity,
 asymmetry).
+
+What caps it (measured from the atlas gait ``humanlike_6link-own-rho0.86``, see
+``scripts/prosthesis_design.py --diagnose``): the NLP keeps the gait pattern (event order)
+of the gait it starts from, and in both steps of this gait the swing knee's spring engages
+(at theta_eq) a few ms before the stance knee's disengages (at theta_dis). As the leg gets
+lighter the two events close in: at 4 % the sign rows of the stance-knee disengagement in
+the segment before the swing-knee engagement bind in both steps (multipliers 164 and 2.7,
+with the swing toe's clearance, 11); at 5 % (mass distribution free) the segment between
+them is at its 1 ms floor in step 0 (1.4 ms in step 1). Beyond (5.5 %, 6 %) IPOPT does
+not converge in 100 iterations: inf_pr stays at 1e-2 to 1 while inf_du grows to
+1e8..1e13 and the multipliers of those rows to 1e7..1e8, the mark of a locally
+infeasible NLP. The simulator at the
+lighter mass with the last compliance takes the other order and fails (the stance foot's
+centre of pressure reaches the toe: the swing knee never engages).
 """
 
 from __future__ import annotations
@@ -214,13 +228,17 @@ class DesignNLPOptions:
     hessian: str = "limited-memory"
     sample_stride: int = 2
     headroom_s: float = 0.0
-    #: shortest segment (s): the event order is the NLP's gait pattern (ShootingNLP.bounds)
+    #: shortest segment (s): the event order is the NLP's gait pattern (ShootingNLP.bounds);
+    #: a modelling floor, not a physical one. Measured on one case (6 % from the 5 %
+    #: mass-distribution design): 1e-4 s instead of 1e-3 s still stops at 100 iterations
     t_min_s: float = 1e-3
     #: the prosthetic leg's body values designed beside its compliance (among l_sc, J_s,
     #: l_fc, J_f: where a prosthetist places the mass; the masses stay (1 - lighter) x the
     #: sound leg's), each within ``mass_distribution_bounds`` x the sound leg's value and
     #: counted in the least-change objective like the compliance; () : the inertias scale
-    #: with the mass and the COM positions stay the sound leg's
+    #: with the mass and the COM positions stay the sound leg's. Measured on one case
+    #: (continuing the 4 % compliance-only design): with all four free 5 % solves (44
+    #: iterations; compliance only, 5.5 % stops at 100), 6 % does not
     mass_distribution: tuple = ()
     mass_distribution_bounds: dict = field(default_factory=lambda: dict(
         l_sc=(0.6, 1.3), J_s=(0.3, 1.5), l_fc=(0.5, 1.5), J_f=(0.3, 1.5)))
@@ -238,7 +256,8 @@ class DesignNLPOptions:
 class DesignSolve:
     """One homotopy step of :func:`design_prosthesis_nlp`: the mass reduction (-), IPOPT
     status, iterations, wall time (s), the NLP's stability bound at the answer, and the
-    re-simulated stride radius, asymmetries (%) and validity (None where no fixed point)."""
+    re-simulated stride radius, asymmetries (%) and validity (None where no fixed point),
+    and what binds at the answer."""
 
     lighter: float
     status: str
@@ -249,6 +268,8 @@ class DesignSolve:
     step_length_asymmetry_pct: float
     step_time_asymmetry_pct: float
     valid: bool | None
+    #: what binds at the answer (:meth:`StrideDesignSolver.binding`, the 20 largest)
+    binding: list = field(default_factory=list)
 
 
 class StrideDesignSolver:
@@ -467,7 +488,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             fp.spectral_radius if fp.converged else math.nan,
             report["step_length_asymmetry_pct"] if report else math.nan,
             report["step_time_asymmetry_pct"] if report else math.nan,
-            fp.valid if fp.converged else None))
+            fp.valid if fp.converged else None, solver.binding(out, top=20)))
         log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
             f"iterations ({out['wall_time_s']:.1f} s); NLP rho32 {out['radius']:.4f}, "
             f"re-simulated stride radius {solves[-1].stride_radius:.4f}, valid "
