@@ -333,6 +333,8 @@ def _validate(frame: pd.DataFrame, source: Path, side: str | None = None) -> pd.
             f"{where}: missing required column(s) {[col(c) for c in missing]}; "
             f"required: {[col(c) for c in REQUIRED_COLUMNS]}, "
             f"found: {[col(str(c)) for c in frame.columns]}"
+            + (" (this is a per-side file: a per-leg fit reads it, pdw-fit --gait FILE)"
+               if side is None and is_per_side(frame.columns) else "")
         )
 
     known = [c for c in (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS) if c in frame.columns]
@@ -521,11 +523,8 @@ def load_side_curves(source: str | os.PathLike[str],
             gives a curve for one side only.
     """
     if right is not None:
+        # a per-side file given as one side fails as a one-curve file, saying it is per-side
         left_c, right_c = load_gait_curves(source), load_gait_curves(right)
-        for c in (left_c, right_c):
-            if is_per_side(c.frame.columns):
-                raise GaitDataError(f"gait curve file {c.source}: a per-side file; give it "
-                                    f"alone, not as one side of two files")
         return SideCurves(left_c, right_c, left_c.source, left_c.name)
     path = _resolve(source)
     frame = _read_csv(path, bundled=Path(source) != path)
