@@ -77,9 +77,11 @@ def _table(res: StrideFitResult, cand: StrideCandidate | None, comp: dict | None
     if cand is None:
         return text
     rep, fp = cand.report, cand.fixed_point
-    text += ("\n| compliance | start | left | right |\n|---|---|---|---|\n" + "".join(
-        f"| {k} | {_f(start_comp['left'][k], '{:.5g}')} | {_f(comp['left'][k], '{:.5g}')} | "
-        f"{_f(comp['right'][k], '{:.5g}')} |\n" for k in comp["left"]))
+    text += ("\n| compliance | start left | start right | left | right |\n"
+             "|---|---|---|---|---|\n" + "".join(
+                 f"| {k} | {_f(start_comp['left'][k], '{:.5g}')} | "
+                 f"{_f(start_comp['right'][k], '{:.5g}')} | {_f(comp['left'][k], '{:.5g}')} | "
+                 f"{_f(comp['right'][k], '{:.5g}')} |\n" for k in comp["left"]))
     legs = rep["legs"]
     text += (
         "\n| stride | value |\n|---|---|\n"
