@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..curves import fit_scores
-from ..errors import CurveError, PoincareError
+from ..errors import CurveError, NoGait, PoincareError
 from ..fixed_point import FixedPointResult, find_fixed_point
 from ..gait_data import SIDES
 from ..shooting import ShootingNLP
@@ -188,7 +188,7 @@ def _symmetric_start(problem, sides, opts: StrideFitOptions, log):
     fp = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
                           fallback=False)
     if not fp.converged:
-        raise ValueError(f"the start gait {start.label} has no fixed point")
+        raise NoGait(f"the start gait {start.label} has no fixed point")
     return fp.state, fp.parameters, start.label, [], notes
 
 
@@ -207,7 +207,7 @@ def fit_stride(problem, sides, options: StrideFitOptions | None = None,
     if problem.asymmetric:
         fp0 = find_stride_fixed_point(problem, smap=smap, fallback=False)
         if not fp0.converged:
-            raise ValueError(f"{problem.name}: no stride fixed point near its initial state")
+            raise NoGait(f"{problem.name}: no stride fixed point near its initial state")
         x, theta, label, solves, notes = fp0.state, fp0.parameters, "the problem's own " \
             "stride gait", [], []
     else:
