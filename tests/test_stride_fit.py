@@ -90,6 +90,25 @@ def test_stride_objective_at_equal_sides_is_twice_the_step_objective(fitted):
     assert abs(f2p - 2 * f1p) < 1e-9 * f1p
 
 
+def test_stride_free_names_and_bounds(fitted):
+    """--side frees one leg's compliance only, named as the stride's physical parameters;
+    the stride's stability bound and verdict are the per-step ones squared."""
+    from pdw_casadi.fit.stride_fit import StrideFitOptions, stride_free_names
+
+    pb, smap, fp, *_ = fitted
+    both = stride_free_names(pb, StrideFitOptions())
+    right = stride_free_names(pb, StrideFitOptions(side="right", free=("k_ankle", "k_knee"),
+                                                   free_slope=True))
+    assert both == tuple(f"{s}.{k}" for s in ("left", "right") for k in pb.compliance_names)
+    assert right == ("right.k_ankle", "right.k_knee", "slope")
+    assert set(both) <= set(smap.parameter_names) and set(right) <= set(smap.parameter_names)
+    with pytest.raises(ValueError, match="side must be"):
+        stride_free_names(pb, StrideFitOptions(side="middle"))
+    opts = StrideFitOptions(max_radius=0.91)
+    assert opts.stride_radius_bound == pytest.approx(0.9 ** 2)
+    assert opts.stride_max_radius == pytest.approx(0.91 ** 2)
+
+
 @pytest.mark.slow  # one stride NLP solve (72 iterations): 4 min 40 s on 2 shared cores
 def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     """pdw-fit on a real subject's per-side file: the stride fit re-simulates as a stable

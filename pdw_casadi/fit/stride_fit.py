@@ -192,6 +192,14 @@ def _symmetric_start(problem, sides, opts: StrideFitOptions, log):
     return fp.state, fp.parameters, start.label, [], notes
 
 
+def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
+    """The stride NLP's unknown parameters: each free side's compliance (``opts.free``, by
+    default all of the problem's) as ``<side>.<name>``, and ``slope`` with ``free_slope``."""
+    base = tuple(opts.free or problem.compliance_names)
+    return tuple(f"{s}.{k}" for s in opts.free_sides() for k in base) + (
+        ("slope",) if opts.free_slope else ())
+
+
 def fit_stride(problem, sides, options: StrideFitOptions | None = None,
                log=print) -> StrideFitResult:
     """Fit each leg of ``problem``'s walker to its side of ``sides``
@@ -220,9 +228,7 @@ def fit_stride(problem, sides, options: StrideFitOptions | None = None,
                   "theta": np.asarray(theta, float).tolist(),
                   "scores": None if start is None else start.scores,
                   "curves": None if start is None else start.report["curves"]}
-    base = tuple(opts.free or problem.compliance_names)
-    free = tuple(f"{s}.{k}" for s in opts.free_sides() for k in base) + (
-        ("slope",) if opts.free_slope else ())
+    free = stride_free_names(problem, opts)
     rounds: list[StrideCandidate] = []
     for rnd in range(opts.rounds):
         try:
@@ -270,4 +276,4 @@ def fit_stride(problem, sides, options: StrideFitOptions | None = None,
 
 
 __all__ = ["StrideCandidate", "StrideFitOptions", "StrideFitResult", "check_stride_targets",
-           "evaluate_stride", "fit_stride"]
+           "evaluate_stride", "fit_stride", "stride_free_names"]
