@@ -498,10 +498,10 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                    help="the right side's curve file; --gait is then the left side's")
     g.add_argument("--side", choices=("both", "left", "right"), default=None,
                    help="per-leg fit: whose compliance is free (default: both)")
-    g.add_argument("--stride-start", choices=("atlas", "fit"), default="atlas",
-                   help="per-leg fit: start from the atlas gait that fits the mean of both "
-                        "sides best, or from the symmetric fit to that mean (default: "
-                        "%(default)s)")
+    g.add_argument("--stride-start", choices=("fit", "atlas"), default="fit",
+                   help="per-leg fit: start from the symmetric fit to the mean of both "
+                        "sides, or from the atlas gait that fits that mean best (no extra "
+                        "solve) (default: %(default)s)")
     args, outputs = _parse(parser, argv)
 
     def body() -> int:
