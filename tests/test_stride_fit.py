@@ -109,7 +109,7 @@ def test_stride_free_names_and_bounds(fitted):
     assert opts.stride_max_radius == pytest.approx(0.91 ** 2)
 
 
-@pytest.mark.slow  # one stride NLP solve (72 iterations): 4 min 40 s on 2 shared cores
+@pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 8 min on 2 shared cores
 def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     """pdw-fit on a real subject's per-side file: the stride fit re-simulates as a stable
     (stride radius <= 0.91^2) valid stride (20 steps within 1e-6 of the NLP), each leg is
