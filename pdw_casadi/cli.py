@@ -491,11 +491,33 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
+    g = parser.add_argument_group(
+        "per-leg fit", "a curve file with per-side columns (knee_left_mean_deg, ...; or "
+        "--gait-right) fits each leg to its side on the stride")
+    g.add_argument("--gait-right", metavar="FILE",
+                   help="the right side's curve file; --gait is then the left side's")
+    g.add_argument("--side", choices=("both", "left", "right"), default=None,
+                   help="per-leg fit: whose compliance is free (default: both)")
+    g.add_argument("--stride-start", choices=("fit", "atlas"), default="fit",
+                   help="per-leg fit: start from the symmetric fit to the mean of both "
+                        "sides, or from the atlas gait that fits that mean best (no extra "
+                        "solve) (default: %(default)s)")
     args, outputs = _parse(parser, argv)
 
     def body() -> int:
-        human = _gait_file(args.gait)
+        from .gait_data import SideCurves, load_gait_file, load_side_curves
+
+        if args.gait_right is not None:
+            human = load_side_curves(args.gait, args.gait_right)
+        else:
+            human = load_gait_file(args.gait)
         problem = load_cli_problem(args)
+        if isinstance(human, SideCurves):
+            return _fit_stride_body(args, outputs, problem, human)
+        if args.side is not None:
+            raise UsageError(f"--side needs per-side curves (columns such as "
+                             f"knee_left_mean_deg, or --gait-right); {human.source} has one "
+                             f"curve set")
         _one_leg_set(problem)
         if args.hip_target == "thigh" and human.thigh_deg is None:
             raise UsageError(f"--hip-target thigh needs a thigh column in the gait file "
@@ -539,6 +561,53 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         return 0
 
     return run(outputs, body)
+
+
+def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
+    """pdw-fit with per-side curves: each leg fitted to its side on the stride
+    (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.fit_stride_report`."""
+    from .fit.stride_fit import StrideFitOptions, check_stride_targets
+    from .fit_stride_report import fit_stride_and_report
+    from .stride import StrideMap
+
+    if args.timing:
+        raise UsageError("--timing is a one-step fit's target; a per-leg fit has none")
+    if args.workers > 1 or args.scheduler is not None or args.multistart > 1:
+        raise UsageError("--multistart, --workers and --scheduler are one-step fit options "
+                         "(a per-leg fit solves one stride NLP)")
+    if args.hip_target == "thigh" and (sides.left.thigh_deg is None):
+        raise UsageError(f"--hip-target thigh needs thigh columns in {sides.source}")
+    _check_curve_walker(problem, "pdw-fit")
+    if not problem.compliance:
+        raise UsageError(f"{problem.name} ({problem.family}) has no compliance values to fit "
+                         f"per leg")
+    try:
+        StrideMap(problem)
+    except ProblemError as exc:
+        raise UsageError(str(exc)) from None
+    outputs.check()
+    atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+    if atlas:
+        check_input_file(Path(atlas), "--atlas")
+    opts = StrideFitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
+                            max_radius=args.max_radius, atlas=atlas, max_iter=args.max_iter,
+                            rounds=args.rounds, verbose=not args.quiet,
+                            side=args.side or "both", start=args.stride_start)
+    check_stride_targets(problem, sides, opts)
+    out = outputs.create()
+    outputs.notes.append(f"the report files are written only at the end, into {out}")
+    log_file = out / "ipopt.log"
+    log_file.unlink(missing_ok=True)
+    opts.log_file = str(log_file)
+    summary = fit_stride_and_report(problem, sides, opts, out,
+                                    log=lambda m: print(m, file=sys.stderr, flush=True))
+    for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
+        outputs.wrote(out / name)
+    print(summary["headline"])
+    print(f"wrote {out}")
+    if not summary["accepted"]:
+        raise NoGait(f"no stable valid stride: {summary['headline']}")
+    return 0
 
 
 def load_fit_start(problem: Problem, path: Path) -> Problem:

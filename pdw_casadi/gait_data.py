@@ -20,12 +20,23 @@ Optional (validated when present):
 
 Other columns are kept unchanged and are not validated. The bundled file ``female_fast.csv``
 (see ``data/README.md``) is found by bare name: ``load_gait_curves("female_fast")``.
+
+**Per-side files** (a walker whose legs differ is fitted leg by leg): the same columns once
+per side, the side after the curve name, ``<curve>_<side>_mean_deg`` and
+``<curve>_<side>_sd_deg`` with curve in hip, knee, thigh, pelvis and side in left, right
+(e.g. ``knee_left_mean_deg``, ``hip_right_sd_deg``), and one ``cycle_pct``: each side's
+curves over its own gait cycle (0 = that side's heel strike). Required: ``cycle_pct`` and
+hip and knee means of both sides; an optional column must be given for both sides or for
+none. One-curve columns (``knee_mean_deg``) and per-side ones may not be mixed.
+:func:`load_side_curves` reads such a file (or two standard files, one per side) into
+:class:`SideCurves`; :func:`load_gait_file` reads either kind.
 """
 
 from __future__ import annotations
 
 import csv
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,10 +53,17 @@ __all__ = [
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
     "SD_COLUMNS",
+    "SIDES",
     "GaitCurves",
     "GaitDataError",
+    "SideCurves",
     "bundled_gait_files",
+    "is_per_side",
     "load_gait_curves",
+    "load_gait_file",
+    "load_side_curves",
+    "side_column",
+    "split_sides",
 ]
 
 REQUIRED_COLUMNS: tuple[str, ...] = ("cycle_pct", "hip_mean_deg", "knee_mean_deg")
@@ -286,8 +304,11 @@ def _read_csv(path: Path, *, bundled: bool) -> pd.DataFrame:
     return frame
 
 
-def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
+def _validate(frame: pd.DataFrame, source: Path, side: str | None = None) -> pd.DataFrame:
     """Check a gait-curve table and return a clean copy (known columns float64, 0-based index).
+
+    ``side`` ("left"/"right"): the table is one side of a per-side file (:func:`split_sides`),
+    and messages name that file's columns (``knee_left_mean_deg``), not the standard ones.
 
     Radians heuristic: human walking moves the knee through about 60 deg per cycle (fast
     walking: ~0 to ~65 deg) and the hip and thigh through about 40-50 deg. In radians the same
@@ -298,6 +319,10 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
     because a real pelvic tilt in degrees can be that small and flat.
     """
     where = f"gait curve file {source}"
+
+    def col(c: str) -> str:
+        return c if side is None else side_column(c, side)
+
     if not isinstance(frame, pd.DataFrame):
         raise GaitDataError(f"{where}: expected a pandas DataFrame, got {type(frame).__name__}")
     frame = frame.reset_index(drop=True).copy()
@@ -305,20 +330,23 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
     missing = [c for c in REQUIRED_COLUMNS if c not in frame.columns]
     if missing:
         raise GaitDataError(
-            f"{where}: missing required column(s) {missing}; "
-            f"required: {list(REQUIRED_COLUMNS)}, found: {[str(c) for c in frame.columns]}"
+            f"{where}: missing required column(s) {[col(c) for c in missing]}; "
+            f"required: {[col(c) for c in REQUIRED_COLUMNS]}, "
+            f"found: {[col(str(c)) for c in frame.columns]}"
+            + (" (this is a per-side file: a per-leg fit reads it, pdw-fit --gait FILE)"
+               if side is None and is_per_side(frame.columns) else "")
         )
 
     known = [c for c in (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS) if c in frame.columns]
     for column in known:
-        frame[column] = _numeric_column(frame[column], column, where)
+        frame[column] = _numeric_column(frame[column], col(column), where)
     for column in (c for c in SD_COLUMNS if c in frame.columns):
         negative = np.flatnonzero(frame[column].to_numpy() < 0.0)
         if negative.size:
             i = int(negative[0])
             raise GaitDataError(
-                f"{where}: column {column!r} is a standard deviation but has the negative value "
-                f"{float(frame[column].iloc[i])!r} at data row {i + 1}"
+                f"{where}: column {col(column)!r} is a standard deviation but has the negative "
+                f"value {float(frame[column].iloc[i])!r} at data row {i + 1}"
             )
 
     if len(frame) < MIN_ROWS:
@@ -357,7 +385,7 @@ def _validate(frame: pd.DataFrame, source: Path) -> pd.DataFrame:
         peak = float(np.abs(values).max())
         if span < RADIANS_MAX_RANGE_DEG and peak < RADIANS_MAX_ABS:
             raise GaitDataError(
-                f"{where}: column {column!r} looks like radians, not degrees: it spans only "
+                f"{where}: column {col(column)!r} looks like radians, not degrees: it spans only "
                 f"{span:.3g} over the cycle and never exceeds {peak:.3g} in magnitude (a human "
                 f"knee moves through ~60 deg per cycle, hip and thigh ~45 deg); "
                 f"convert to degrees"
@@ -390,3 +418,130 @@ def _numeric_column(values: pd.Series, column: str, where: str) -> pd.Series:
             f"at data row {i + 1}"
         )
     return numbers
+
+
+# --------------------------------------------------------------------------------------------
+# per-side files
+# --------------------------------------------------------------------------------------------
+SIDES: tuple[str, str] = ("left", "right")
+"""The physical legs, in the order of :mod:`pdw_casadi.stride` (step 1: left stance)."""
+
+_CURVE_COLUMNS = tuple(c for c in (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS) if c != "cycle_pct")
+_SIDE_RE = re.compile(r"^(hip|knee|thigh|pelvis)_(left|right)_(mean|sd)_deg$")
+
+
+def side_column(column: str, side: str) -> str:
+    """The per-side name of a standard curve column: ``knee_mean_deg`` -> ``knee_left_mean_deg``
+    (``cycle_pct`` is shared by both sides)."""
+    if column == "cycle_pct":
+        return column
+    curve, rest = column.split("_", 1)
+    return f"{curve}_{side}_{rest}"
+
+
+def is_per_side(columns) -> bool:
+    """Whether a header holds per-side curve columns (``knee_left_mean_deg``, ...)."""
+    return any(_SIDE_RE.match(str(c).strip()) for c in columns)
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class SideCurves:
+    """Human gait curves of each physical leg, each over its own gait cycle (deg).
+
+    Attributes:
+        left, right: the validated curves of each side (:class:`GaitCurves`, standard
+            column names).
+        source: the file (or the left side's file) the curves were read from.
+        name: a short label, by default the file name without its suffix.
+    """
+
+    left: GaitCurves
+    right: GaitCurves
+    source: Path
+    name: str
+
+    def __repr__(self) -> str:
+        return (f"SideCurves(name={self.name!r}, rows={len(self.left)}/{len(self.right)}, "
+                f"source={str(self.source)!r})")
+
+    def side(self, side: str) -> GaitCurves:
+        """The curves of ``side`` ("left" or "right")."""
+        if side not in SIDES:
+            raise ValueError(f"side must be one of {SIDES}, got {side!r}")
+        return self.left if side == "left" else self.right
+
+    def mean(self, n: int = 101) -> GaitCurves:
+        """The mean of both sides' curves on ``n`` points (each side on its own cycle), the
+        curves a symmetric walker fits: columns present on both sides; the SD columns are
+        dropped (a mean of two sides' SDs is not an SD of anything)."""
+        a, b = self.left.resample(n).frame, self.right.resample(n).frame
+        columns = {"cycle_pct": a["cycle_pct"].to_numpy()}
+        for c in _CURVE_COLUMNS:
+            if c in a.columns and c in b.columns and not c.endswith("_sd_deg"):
+                columns[c] = 0.5 * (a[c].to_numpy() + b[c].to_numpy())
+        return GaitCurves(frame=pd.DataFrame(columns), source=self.source,
+                          name=f"{self.name} (mean of both sides)")
+
+
+def split_sides(frame: pd.DataFrame, source: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The two sides of a per-side table as standard tables (``knee_left_mean_deg`` ->
+    ``knee_mean_deg``), each validated like a one-curve file (messages name the per-side
+    columns). Raises :class:`GaitDataError` on a mixed or one-sided schema."""
+    where = f"gait curve file {source}"
+    names = [str(c) for c in frame.columns]
+    plain = [c for c in names if c in _CURVE_COLUMNS]
+    if plain:
+        raise GaitDataError(
+            f"{where}: mixes one-curve columns {plain} with per-side columns "
+            f"(<curve>_left_..., <curve>_right_...); use one schema")
+    if "cycle_pct" not in names:
+        raise GaitDataError(f"{where}: missing required column(s) ['cycle_pct']")
+    for c in _CURVE_COLUMNS:
+        have = [s for s in SIDES if side_column(c, s) in names]
+        if len(have) == 1:
+            other = "right" if have[0] == "left" else "left"
+            raise GaitDataError(
+                f"{where}: column {side_column(c, have[0])!r} has no {other} counterpart "
+                f"{side_column(c, other)!r}; a per-side file gives each curve for both sides")
+    out = []
+    for s in SIDES:
+        cols = {side_column(c, s): c for c in ("cycle_pct", *_CURVE_COLUMNS)
+                if side_column(c, s) in names}
+        sub = frame[list(cols)].rename(columns=cols)
+        out.append(_validate(sub, source, side=s))
+    return out[0], out[1]
+
+
+def load_side_curves(source: str | os.PathLike[str],
+                     right: str | os.PathLike[str] | None = None) -> SideCurves:
+    """Read per-side human curves: one per-side file (module docstring), or, with ``right``,
+    two standard files, ``source`` the left leg's and ``right`` the right leg's.
+
+    Raises:
+        GaitDataError: a file is missing, unreadable or fails a check of
+            :func:`load_gait_curves`; the per-side file is not per-side, mixes schemas, or
+            gives a curve for one side only.
+    """
+    if right is not None:
+        # a per-side file given as one side fails as a one-curve file, saying it is per-side
+        left_c, right_c = load_gait_curves(source), load_gait_curves(right)
+        return SideCurves(left_c, right_c, left_c.source, left_c.name)
+    path = _resolve(source)
+    frame = _read_csv(path, bundled=Path(source) != path)
+    if not is_per_side(frame.columns):
+        raise GaitDataError(f"gait curve file {path}: no per-side columns "
+                            f"(<curve>_left_mean_deg, <curve>_right_mean_deg)")
+    a, b = split_sides(frame, path)
+    name = _stem(path)
+    return SideCurves(GaitCurves(frame=a, source=path, name=f"{name}:left"),
+                      GaitCurves(frame=b, source=path, name=f"{name}:right"), path, name)
+
+
+def load_gait_file(source: str | os.PathLike[str]) -> GaitCurves | SideCurves:
+    """A gait-curve file of either kind: :class:`SideCurves` when its header has per-side
+    columns, else :class:`GaitCurves` (:func:`load_gait_curves`)."""
+    path = _resolve(source)
+    frame = _read_csv(path, bundled=Path(source) != path)
+    if is_per_side(frame.columns):
+        return load_side_curves(source)
+    return GaitCurves(frame=frame, source=path, name=_stem(path))

@@ -187,6 +187,18 @@ def make_files(base: Path) -> dict[str, str]:
                  if not c.startswith("knee")) for row in good) + "\n")
     f["gait_binary"] = _write(base, "gait/binary.csv", b"\x00\x01\x02\xff" * 50)
     f["gait_short"] = _write(base, "gait/short.csv", "\n".join(good[:3]) + "\n")
+    # per-side gait curves (knee_left_mean_deg, ...)
+    f["sides_good"] = str(ROOT / "data" / "subjects" / "WBDS09_fast_sides.csv")
+    sides = Path(f["sides_good"]).read_text().splitlines()
+    sh = sides[0].split(",")
+    f["sides_mixed"] = _write(base, "gait/sides_mixed.csv", "\n".join(
+        row + "," + row.split(",")[sh.index("knee_left_mean_deg")] if i else
+        row + ",knee_mean_deg" for i, row in enumerate(sides)) + "\n")
+    keep = [i for i, c in enumerate(sh) if c != "thigh_right_mean_deg"]
+    f["sides_one_sided"] = _write(base, "gait/sides_one_sided.csv", "\n".join(
+        ",".join(row.split(",")[i] for i in keep) for row in sides) + "\n")
+    f["sides_text"] = _write(base, "gait/sides_text.csv", sides[0] + "\n" + "\n".join(
+        ",".join("x" for _ in sh) for _ in range(30)) + "\n")
     f["a_file"] = _write(base, "plain_file.txt", "not a directory\n")
     return f
 
@@ -357,6 +369,17 @@ def make_cases(f: dict[str, str]) -> list[Case]:
         ft(f"{flag[2:]}:0", [*hl, *g, flag, "0"])
         ft(f"{flag[2:]}:text", [*hl, *g, flag, "many"])
     ft("seed:negative", [*hl, *g, "--seed", "-1"])
+    for key in ("sides_mixed", "sides_one_sided", "sides_text"):
+        ft(f"gait:{key}", [*hl, "--gait", f[key]])
+    sg = ["--gait", f["sides_good"]]
+    ft("sides:side_without_sides", [*hl, *g, "--side", "right"])
+    ft("sides:side_bogus", [*hl, *sg, "--side", "middle"])
+    ft("sides:timing", [*hl, *sg, "--timing"])
+    ft("sides:multistart", [*hl, *sg, "--multistart", "2"])
+    ft("sides:stride_start_bogus", [*hl, *sg, "--stride-start", "nowhere"])
+    ft("sides:right_is_per_side", [*hl, *g, "--gait-right", f["sides_good"]])
+    ft("sides:right_missing", [*hl, *g, "--gait-right", "no_such.csv"])
+    ft("sides:compass_has_no_knee", ["--problem", "compass_gait", *sg])
     ft("problem:compass_has_no_knee", ["--problem", "compass_gait", *g])
     ft("problem:kneed_nothing_to_fit", ["--problem", "kneed_walker", *g])
     for case in cases:

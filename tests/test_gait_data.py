@@ -141,3 +141,144 @@ def test_gait_errors_become_a_one_line_cli_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and len(err.strip().splitlines()) == 1
     assert "Traceback" not in err
+
+
+# -- per-side files --------------------------------------------------------------------------
+SIDES_FILE = bundled_dir("data") / "subjects" / "WBDS09_fast_sides.csv"
+
+
+@pytest.fixture(scope="module")
+def sides_frame() -> pd.DataFrame:
+    return pd.read_csv(SIDES_FILE)
+
+
+def test_per_side_file_loads_each_side_and_its_mean():
+    """The per-side subject file: each side its own curves (the file's columns), and the
+    mean of both sides is the subject's one-curve file (data/subjects/WBDS09_fast.csv, made
+    from the same excerpt) to its 4-decimal rounding."""
+    from pdw_casadi.gait_data import SideCurves, load_gait_file, load_side_curves
+
+    sides = load_gait_file(SIDES_FILE)
+    assert isinstance(sides, SideCurves) and sides.name == "WBDS09_fast_sides"
+    raw = pd.read_csv(SIDES_FILE)
+    for side in ("left", "right"):
+        c = sides.side(side)
+        assert np.array_equal(c.knee_deg, raw[f"knee_{side}_mean_deg"].to_numpy())
+        assert np.array_equal(c.thigh_deg, raw[f"thigh_{side}_mean_deg"].to_numpy())
+    assert np.abs(sides.left.knee_deg - sides.right.knee_deg).max() > 1.0  # sides differ
+    mean = pd.read_csv(bundled_dir("data") / "subjects" / "WBDS09_fast.csv")
+    m = sides.mean()
+    for joint in ("knee", "hip", "thigh", "pelvis"):
+        assert np.abs(getattr(m, f"{joint}_deg") - mean[f"{joint}_mean_deg"]).max() < 1e-4
+    assert load_side_curves(SIDES_FILE).left.name == "WBDS09_fast_sides:left"
+    assert not isinstance(load_gait_file("female_fast"), SideCurves)
+
+
+def _side_nan(f):
+    f.loc[12, "knee_left_mean_deg"] = np.nan
+    return f
+
+
+def _side_radians(f):
+    f["hip_right_mean_deg"] = np.radians(f["hip_right_mean_deg"])
+    return f
+
+
+def _side_negative_sd(f):
+    f["knee_right_sd_deg"] = 1.0
+    f["knee_left_sd_deg"] = 1.0
+    f.loc[4, "knee_right_sd_deg"] = -0.5
+    return f
+
+
+def _side_mixed(f):
+    f["knee_mean_deg"] = f["knee_left_mean_deg"]
+    return f
+
+
+def _side_one_sided(f):
+    return f.drop(columns=["thigh_right_mean_deg"])
+
+
+def _side_no_knee_right(f):
+    return f.drop(columns=["knee_right_mean_deg", "knee_left_mean_deg"]).assign(
+        knee_left_mean_deg=f["knee_left_mean_deg"])
+
+
+def _side_no_cycle(f):
+    return f.drop(columns=["cycle_pct"])
+
+
+def _side_out_of_order(f):
+    f.loc[[10, 11], "cycle_pct"] = f.loc[[11, 10], "cycle_pct"].to_numpy()
+    return f
+
+
+#: bad per-side files and the words the error must contain (it names the per-side column)
+BAD_SIDES = {
+    "nan": (_side_nan, "'knee_left_mean_deg' has a missing value"),
+    "radians": (_side_radians, "'hip_right_mean_deg' looks like radians"),
+    "negative sd": (_side_negative_sd, "'knee_right_sd_deg' is a standard deviation"),
+    "mixed schema": (_side_mixed, "mixes one-curve columns ['knee_mean_deg']"),
+    "one-sided column": (_side_one_sided, "'thigh_left_mean_deg' has no right counterpart"),
+    "knee of one side only": (_side_no_knee_right, "'knee_left_mean_deg' has no right"),
+    "no cycle_pct": (_side_no_cycle, "missing required column(s) ['cycle_pct']"),
+    "out of order": (_side_out_of_order, "not increasing"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_SIDES))
+def test_bad_per_side_files_are_rejected(case, sides_frame, tmp_path):
+    from pdw_casadi.gait_data import load_gait_file
+
+    edit, message = BAD_SIDES[case]
+    path = _write(edit(sides_frame.copy()), tmp_path)
+    with pytest.raises(GaitDataError) as info:
+        load_gait_file(path)
+    assert message in str(info.value) and str(path) in str(info.value)
+
+
+def test_per_side_loader_refuses_other_files(tmp_path):
+    """load_side_curves: a one-curve file alone is not per-side; two files must each be a
+    one-curve file (one per side)."""
+    from pdw_casadi.gait_data import load_side_curves
+
+    with pytest.raises(GaitDataError, match="no per-side columns"):
+        load_side_curves("female_fast")
+    with pytest.raises(GaitDataError, match="this is a per-side file"):
+        load_side_curves("female_fast", SIDES_FILE)
+    two = load_side_curves("female_fast", bundled_dir("data") / "subjects" / "WBDS10_fast.csv")
+    assert two.left.name == "female_fast" and two.right.name == "WBDS10_fast"
+
+
+@pytest.mark.parametrize("case", ["mixed schema", "one-sided column", "nan"])
+def test_pdw_fit_rejects_bad_per_side_files_and_writes_nothing(case, sides_frame, tmp_path,
+                                                               capsys):
+    from pdw_casadi.cli import fit_main
+
+    edit, message = BAD_SIDES[case]
+    bad = _write(edit(sides_frame.copy()), tmp_path, "bad_sides.csv")
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        fit_main(["--gait", str(bad), "--out", str(out)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--gait", "female_fast.csv", "--side", "right"], "--side needs per-side curves"),
+    (["--gait", str(SIDES_FILE), "--timing"], "--timing is a one-step fit's target"),
+    (["--gait", str(SIDES_FILE), "--multistart", "2"], "one-step fit options"),
+])
+def test_pdw_fit_per_side_option_errors(argv, message, tmp_path, capsys):
+    from pdw_casadi.cli import fit_main
+
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        fit_main([*argv, "--out", str(out)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err
+    assert not out.exists()

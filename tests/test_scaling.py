@@ -136,6 +136,8 @@ def test_prosthesis_design_makes_the_gait_symmetric():
     assert res.problem.asymmetric
 
 
+# about 30 s warm (a 20-point design continuation): in the slow set
+@pytest.mark.slow
 def test_subject_continuation_keeps_the_gait_valid():
     """The de Leva body of a bundled subject (longer shank, shorter thigh than Table 1's):
     without holds the swing toe's clearance falls below its 5 mm requirement on the way;

@@ -6,7 +6,9 @@
 - :mod:`.driver`: the IPOPT driver and its progress lines;
 - :mod:`.starts`: the gait atlas and the choice of starts;
 - :mod:`.result`: solves, candidates, checks;
-- :mod:`.core`: :func:`fit_gait`.
+- :mod:`.core`: :func:`fit_gait`;
+- :mod:`.stride_objective`, :mod:`.stride_fit`: :func:`fit_stride`, each leg to its own
+  side's curves on the stride.
 """
 
 from .core import RefitCorrector, check_targets, fit_gait
@@ -14,7 +16,9 @@ from .objective import CurveError
 from .options import FitOptions
 from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score, reference_gait
 from .stability import RADIUS_NORM, StabilityRow, smooth_radius
+from .stride_fit import StrideFitOptions, StrideFitResult, fit_stride
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
-           "RefitCorrector", "Solve", "StabilityRow", "check_targets", "evaluate_gait",
-           "fit_gait", "mean_score", "reference_gait", "smooth_radius"]
+           "RefitCorrector", "Solve", "StabilityRow", "StrideFitOptions", "StrideFitResult",
+           "check_targets", "evaluate_gait", "fit_gait", "fit_stride", "mean_score",
+           "reference_gait", "smooth_radius"]

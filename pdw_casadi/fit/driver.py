@@ -143,12 +143,16 @@ class FitSolver:
     bound rho_32 <= max_radius - radius_margin (:class:`StabilityRow`).
     """
 
-    def __init__(self, nlp, human, opts: FitOptions, log=print, extra=None):
+    def __init__(self, nlp, human, opts: FitOptions, log=print, extra=None, errors=None,
+                 radius_bound: float | None = None):
         """``extra(nlp) -> MX``: a further objective term of the caller's (e.g. the heel-off
         margin of scripts/heeloff_seed.py); like the timing term it is left out of the
-        reported objective, which stays the curve part."""
+        reported objective, which stays the curve part. ``errors``: the curve error rows
+        (key -> (err, SS_tot)) instead of :func:`curve_errors` of ``human`` (the stride fit's
+        per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
+        bound (default ``max_radius - radius_margin``; a stride's is that squared)."""
         self.nlp, self.opts, self.log = nlp, opts, log
-        errs = curve_errors(nlp, human, opts.targets())
+        errs = errors if errors is not None else curve_errors(nlp, human, opts.targets())
         rows, obj, self.E, self.ss = [], 0, {}, {}
         for target, (err, ss_tot) in errs.items():
             E = ca.MX.sym(f"E_{target}", 1, err.shape[1])
@@ -182,7 +186,9 @@ class FitSolver:
         self.ubg = np.r_[nlp.ubg, np.zeros(ne)]
         if self.row is not None:
             self.lbg = np.r_[self.lbg, -np.inf]
-            self.ubg = np.r_[self.ubg, opts.max_radius - opts.radius_margin]
+            bound = opts.max_radius - opts.radius_margin if radius_bound is None \
+                else radius_bound
+            self.ubg = np.r_[self.ubg, bound]
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
 

@@ -18,6 +18,11 @@ import numpy as np
 from ..curves import cycle_time
 from ..errors import CurveError
 
+#: two samples of one part further apart than this many times its median sample spacing do
+#: not bracket the cycle points between them (a gap in the part, not an RK4 interval; the
+#: spacing varies by at most the 1.25 of the NLP's step-size bound between segments)
+GAP_FACTOR = 3.0
+
 #: fit target -> (model output stem, human column)
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
 
@@ -56,20 +61,41 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
         for leg in (1, 2):
             pct[leg].append(100 * cycle_time(ts, leg, T, t_hs, k >= k_hs) / (2 * T))
     pct = {leg: ca.horzcat(*rows) for leg, rows in pct.items()}
+
+    def model(stem):
+        return {leg: ca.horzcat(*[nlp.output(k, f"{stem}{leg}_deg")
+                                  for k in range(len(nlp.specs))]) for leg in (1, 2)}
+
+    return interpolated_errors(nlp, pct, model, human, targets)
+
+
+def interpolated_errors(nlp, pct: dict, model, human, targets) -> dict:
+    """Per target: (err, SS_tot), the model minus human angle (deg) at the human curve's 101
+    cycle points. ``pct``: part -> the cycle percentage of that part's RK4 samples (1 x n
+    MX of the NLP unknowns; a part is a stretch of the cycle, e.g. one leg's samples);
+    ``model(stem)``: part -> the model's ``stem`` angle at the same samples. Each cycle
+    point is the linear interpolation between the two samples of one part that bracket it
+    at the starting gait (``nlp.w0``); the part whose bracket holds the point is chosen."""
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}
     h = human.resample(101)
     grid = np.asarray(h.cycle_pct, float)
     # leg 2's samples run 50..100 % then 0..1.6 %: bracket in cycle order, not time order
-    order = {leg: np.argsort(pct0[leg], kind="stable") for leg in (1, 2)}
+    order = {leg: np.argsort(pct0[leg], kind="stable") for leg in pct}
+    spacing = {leg: float(np.median(np.diff(pct0[leg][order[leg]]))) for leg in pct}
     choice = []  # (leg, sample a, sample b) bracketing each cycle point
     for g in grid:
         options = []
-        for leg in (1, 2):
+        for leg in pct:
             o = order[leg]
             p = pct0[leg][o]
             j = int(np.clip(np.searchsorted(p, g) - 1, 0, p.size - 2))
             outside = max(p[j] - g, g - p[j + 1], 0.0)
+            if outside == 0.0 and p[j + 1] - p[j] > GAP_FACTOR * spacing[leg]:
+                # the part's samples straddle a stretch of the cycle it does not cover (leg
+                # 2 of a step: before and after its heel strike): not a bracket, but as far
+                # from the point as its nearer sample
+                outside = min(g - p[j], p[j + 1] - g)
             options.append((outside, leg, int(o[j]), int(o[j + 1])))
         choice.append(min(options)[1:])
     out = {}
@@ -77,13 +103,11 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
         stem, column = TARGETS[target]
         vals = np.asarray(getattr(h, column), float)
         ss_tot = float(np.sum((vals - vals.mean()) ** 2))
-        model = {leg: ca.horzcat(*[nlp.output(k, f"{stem}{leg}_deg")
-                                   for k in range(len(nlp.specs))]) for leg in (1, 2)}
+        y = model(stem)
         errs = []
         for (leg, a, b), g, v in zip(choice, grid, vals, strict=True):
             pa, pb = pct[leg][a], pct[leg][b]
-            ya, yb = model[leg][a], model[leg][b]
+            ya, yb = y[leg][a], y[leg][b]
             errs.append(ya + (yb - ya) * (g - pa) / (pb - pa) - v)
         out[target] = (ca.horzcat(*errs), ss_tot)
     return out
-

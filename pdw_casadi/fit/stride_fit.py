@@ -1,0 +1,282 @@
+"""Fit each leg to its own side's human curves on the stride (two steps, legs may differ).
+
+:func:`fit_stride` solves the stride multiple-shooting NLP
+(:meth:`~pdw_casadi.shooting.ShootingNLP.stride`: step 0 with the left leg in stance,
+step 1 with the right) for a periodic stride and each leg's free compliance (``left.k_ankle``,
+``right.k_ankle``, ...), minimising the sum over legs and curves of 1 - R^2 of each leg's gait
+cycle against its side's curves (:mod:`.stride_objective`), with the stability row on the
+stride's Jacobian J_2 J_1 bounded by (``max_radius`` - ``radius_margin``)^2: a stride is two
+steps, so the per-step bound squared. It starts from the symmetric fit to the mean of both
+sides (:func:`~pdw_casadi.fit.fit_gait`; with ``start="atlas"``, from the atlas gait that
+fits that mean best), repeated twice, and checks the answer on the stride map as
+the step fit does: 20-step re-simulation with the legs' parameters alternating (deviation
+< 1e-6), the stride fixed point, its exact-AD spectral radius (<= ``max_radius``^2) and
+validity. R^2 is that of the re-simulated gait, per leg (:func:`pdw_casadi.stride.stride_report`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..curves import fit_scores
+from ..errors import CurveError, NoGait, PoincareError
+from ..fixed_point import FixedPointResult, find_fixed_point
+from ..gait_data import SIDES
+from ..shooting import ShootingNLP
+from ..simulate import Simulator
+from ..stride import (
+    StrideMap,
+    find_stride_fixed_point,
+    physical_parameter_vector,
+    stride_report,
+)
+from .core import check_targets, fit_gait
+from .driver import FitSolver
+from .options import FitOptions
+from .result import Solve
+from .starts import select_starts
+from .stride_objective import side_targets, stride_curve_errors
+
+
+@dataclass
+class StrideFitOptions(FitOptions):
+    """Settings of :func:`fit_stride`: those of :class:`~pdw_casadi.fit.FitOptions` (the
+    symmetric start fit uses them as they are) and
+
+    ``side``: whose compliance is free, "both" (each leg its own), "left" or "right" (the
+    other leg keeps the start's); ``start``: "fit" (the symmetric step fit to the mean of
+    both sides first, then repeated twice) or "atlas" (the atlas or problem gait that fits
+    that mean best, as the step fit picks it, repeated twice; no extra solve). Measured on
+    one file (``pdw-fit --gait data/subjects/WBDS09_fast_sides.csv``, both legs free, 2
+    shared cores): from "fit" the stride NLP ends Solve_Succeeded in 110 iterations at
+    objective 0.8493 (478 s in all), from "atlas" in 72 at 0.8526 (280 s); so "fit", the
+    better answer and the meaningful comparison (what per-leg compliance adds to the best
+    symmetric fit), is the default. Both runs first leave the feasible region (infeasibility
+    0.2 to 0.4 near iteration 10) and come back. ``max_radius`` stays the per-step value:
+    the stride's verdict is ``max_radius``^2, its NLP bound (``max_radius`` -
+    ``radius_margin``)^2.
+    """
+
+    side: str = "both"
+    start: str = "fit"
+
+    @property
+    def stride_max_radius(self) -> float:
+        return self.max_radius ** 2
+
+    @property
+    def stride_radius_bound(self) -> float:
+        return (self.max_radius - self.radius_margin) ** 2
+
+    def free_sides(self) -> tuple[str, ...]:
+        if self.side == "both":
+            return SIDES
+        if self.side not in SIDES:
+            raise ValueError(f"side must be 'both', 'left' or 'right', got {self.side!r}")
+        return (self.side,)
+
+
+@dataclass
+class StrideCandidate:
+    """A fitted stride with its checks: the stride fixed point (stability, validity), the
+    per-leg report (:func:`~pdw_casadi.stride.stride_report`, with curves), R^2 per leg
+    (``scores[side]``), the re-simulation deviation (rad, rad/s) of the NLP's section states
+    over ``resim_steps`` steps, and the NLP objective (sum of 1 - R^2 over legs and curves)."""
+
+    state: np.ndarray
+    theta: np.ndarray
+    fixed_point: FixedPointResult
+    report: dict
+    scores: dict
+    resimulation_deviation: float
+    objective: float = math.nan
+    resim_tol: float = 1e-6
+    max_radius: float = 0.91 ** 2
+
+    @property
+    def stable(self) -> bool:
+        return self.fixed_point.stable and self.fixed_point.spectral_radius <= self.max_radius
+
+    @property
+    def valid(self) -> bool:
+        return self.fixed_point.valid and self.resimulation_deviation < self.resim_tol
+
+    @property
+    def good(self) -> bool:
+        return self.stable and self.valid
+
+    def mean_score(self, targets) -> float:
+        """Mean R^2 over both legs and ``targets``."""
+        return float(np.mean([self.scores[s][f"r2_{t}"] for s in SIDES for t in targets]))
+
+
+@dataclass
+class StrideFitResult:
+    """The stride fit: its ``best`` stable valid candidate (None if none), every round's
+    candidate, the symmetric start (``start``: label, state, parameters, its R^2 per leg),
+    the IPOPT solves (the start fit's first) and the wall time (s)."""
+
+    problem: object
+    best: StrideCandidate | None
+    candidates: list[StrideCandidate]
+    start: dict
+    solves: list[Solve]
+    options: StrideFitOptions
+    wall_time_s: float
+    targets: tuple[str, ...]
+    free: tuple[str, ...]
+    notes: list[str] = field(default_factory=list)
+
+
+def evaluate_stride(smap: StrideMap, xs_steps, theta, sides, resim_steps: int = 20,
+                    resim_tol: float = 1e-6, max_radius: float = 0.91 ** 2
+                    ) -> StrideCandidate | None:
+    """Checks of a stride (``xs_steps``: the section state at the start of each of its two
+    steps; ``theta``: physical parameters): the re-simulation deviation over ``resim_steps``
+    steps with the legs' parameters alternating, the stride fixed point and its report, R^2
+    per leg against ``sides``. None when the simulator finds no stride fixed point there."""
+    x, x2 = (np.asarray(v, float) for v in xs_steps)
+    theta = np.asarray(theta, float)
+    sim = Simulator(smap.problem, smap.hs)
+    run = sim.run(x, None, steps=resim_steps, record=False,
+                  p_steps=list(smap.step_parameters(theta)))
+    if run.failure is None:
+        ps = run.poincare_states
+        dev = float(max(np.abs(ps[0::2] - x).max(), np.abs(ps[1::2] - x2).max()))
+    else:
+        dev = math.inf
+    fp = find_stride_fixed_point(smap.problem, x0=x, theta=theta, max_iter=15,
+                                 fallback=False, smap=smap)
+    if not fp.converged:
+        return None
+    try:
+        rep = stride_report(smap, fp.state, fp.parameters)
+    except PoincareError:
+        return None
+    scores = {s: fit_scores(rep["curves"][s], sides.side(s)) for s in SIDES}
+    return StrideCandidate(fp.state, fp.parameters, fp, rep, scores, dev,
+                           resim_tol=resim_tol, max_radius=max_radius)
+
+
+def check_stride_targets(problem, sides, opts: StrideFitOptions) -> None:
+    """Raise :class:`CurveError` (or ValueError for bad options) before any work."""
+    if opts.timing_weight > 0:
+        raise CurveError("the timing target is a one-step fit's (a stride fit has none)")
+    if opts.start not in ("fit", "atlas"):
+        raise ValueError(f"start must be 'fit' or 'atlas', got {opts.start!r}")
+    opts.free_sides()
+    for s in SIDES:
+        check_targets(problem, sides.side(s), opts)
+
+
+def _symmetric_start(problem, sides, opts: StrideFitOptions, log):
+    """(section state, step parameters, label, the start fit's solves, notes)."""
+    mean = sides.mean()
+    notes: list[str] = []
+    if opts.start == "fit":
+        log("symmetric start: the one-step fit to the mean of both sides")
+        res = fit_gait(problem, mean, opts, log=log)
+        cand = res.best
+        if cand is not None:
+            return cand.state, cand.parameters, "symmetric fit to the mean of both sides", \
+                res.solves, res.notes
+        notes = [*res.notes, "the symmetric start fit found no stable valid gait; starting "
+                             "from the atlas"]
+        log(notes[-1])
+    start = select_starts(problem, mean, opts)[0]
+    fp = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
+                          fallback=False)
+    if not fp.converged:
+        raise NoGait(f"the start gait {start.label} has no fixed point")
+    return fp.state, fp.parameters, start.label, [], notes
+
+
+def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
+    """The stride NLP's unknown parameters: each free side's compliance (``opts.free``, by
+    default all of the problem's) as ``<side>.<name>``, and ``slope`` with ``free_slope``."""
+    base = tuple(opts.free or problem.compliance_names)
+    return tuple(f"{s}.{k}" for s in opts.free_sides() for k in base) + (
+        ("slope",) if opts.free_slope else ())
+
+
+def fit_stride(problem, sides, options: StrideFitOptions | None = None,
+               log=print) -> StrideFitResult:
+    """Fit each leg of ``problem``'s walker to its side of ``sides``
+    (:class:`~pdw_casadi.gait_data.SideCurves`) on the stride NLP (module docstring).
+    ``problem``: a symmetric walker (the start is its symmetric gait repeated twice), or one
+    whose legs differ (the start is its own stride fixed point)."""
+    opts = options or StrideFitOptions()
+    check_stride_targets(problem, sides, opts)
+    t_start = time.perf_counter()
+    targets = opts.targets()
+    keys = side_targets(targets)
+    smap = StrideMap(problem)
+    if problem.asymmetric:
+        fp0 = find_stride_fixed_point(problem, smap=smap, fallback=False)
+        if not fp0.converged:
+            raise NoGait(f"{problem.name}: no stride fixed point near its initial state")
+        x, theta, label, solves, notes = fp0.state, fp0.parameters, "the problem's own " \
+            "stride gait", [], []
+    else:
+        x, p, label, solves, notes = _symmetric_start(problem, sides, opts, log)
+        theta = physical_parameter_vector(problem.with_parameters(p))
+    solves = list(solves)
+    start = evaluate_stride(smap, (x, x), theta, sides, opts.resim_steps, opts.resim_tol,
+                            opts.stride_max_radius) if not problem.asymmetric else None
+    start_info = {"label": label, "state": np.asarray(x, float).tolist(),
+                  "theta": np.asarray(theta, float).tolist(),
+                  "scores": None if start is None else start.scores,
+                  "curves": None if start is None else start.report["curves"]}
+    free = stride_free_names(problem, opts)
+    rounds: list[StrideCandidate] = []
+    for rnd in range(opts.rounds):
+        try:
+            nlp = ShootingNLP.stride(problem, x, theta, free=free,
+                                     sample_stride=opts.sample_stride,
+                                     headroom_s=opts.segment_headroom_s)
+        except ValueError as exc:
+            notes.append(f"round {rnd}: {exc}")
+            log(notes[-1])
+            break
+        log(f"stride round {rnd} from {label}: {len(nlp.specs)} segments, "
+            f"{nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} constraints, {len(free)} free")
+        errs = stride_curve_errors(nlp, sides, targets)
+        solver = FitSolver(nlp, None, opts, log=log, errors=errs,
+                           radius_bound=opts.stride_radius_bound)
+        out = solver.solve(nlp.w0)
+        u = nlp.unpack(out["w"])
+        cand = evaluate_stride(nlp.stride_map, u["xs_steps"], u["p"], sides, opts.resim_steps,
+                               opts.resim_tol, opts.stride_max_radius) \
+            if out["success"] else None
+        hist = out["history"]
+        rho = cand.fixed_point.spectral_radius if cand else math.nan
+        solves.append(Solve(-1, rnd, out["status"], out["iterations"], out["wall_time_s"],
+                            out["objective"], rho,
+                            hist[-1].spectral_bound if hist else math.nan))
+        log(f"stride round {rnd}: {out['status']} after {out['iterations']} iterations "
+            f"({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, stride radius "
+            f"{rho:.4f}")
+        if cand is None:
+            notes.append(f"stride round {rnd}: {out['status']}"
+                         + ("; no stride fixed point of the simulator there"
+                            if out["success"] else ""))
+            break
+        cand.objective = out["objective"]
+        rounds.append(cand)
+        gap = abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][
+            f"r2_{k.split('.')[1]}"] for k in keys))
+        if gap <= opts.consistency_tol * max(cand.objective, 1e-6):
+            break
+        x, theta = cand.state, cand.theta
+    good = [c for c in rounds if c.good]
+    best = max(good, key=lambda c: c.mean_score(targets)) if good else None
+    return StrideFitResult(problem, best, rounds, start_info, solves, opts,
+                           time.perf_counter() - t_start, targets, free, notes)
+
+
+__all__ = ["StrideCandidate", "StrideFitOptions", "StrideFitResult", "check_stride_targets",
+           "evaluate_stride", "fit_stride", "stride_free_names"]

@@ -1,0 +1,135 @@
+"""The per-leg fit on the stride: its curve rows are the simulator's per-leg curves, at equal
+legs and equal sides they are the one-step fit's twice, and an end-to-end per-side fit of a
+real subject re-simulates as a stable valid stride."""
+
+from __future__ import annotations
+
+import json
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from pdw_casadi.fit.objective import curve_errors
+from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
+from pdw_casadi.gait_data import SideCurves, load_gait_curves, load_side_curves
+from pdw_casadi.prosthesis import atlas_problem
+from pdw_casadi.resources import bundled_dir
+from pdw_casadi.shooting import ShootingNLP
+from pdw_casadi.stride import StrideMap, stride_report
+
+SUBJECT = bundled_dir("data") / "subjects" / "WBDS09_fast_sides.csv"
+#: the atlas gait fitted to the bundled curves (the one-step fit's answer, re-solved)
+FITTED = "humanlike_6link-female_fast-rho0.86"
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    """The fitted symmetric gait, its one-step NLP and its stride NLP (both built at the
+    same fixed point, nothing free)."""
+    from pdw_casadi.fixed_point import find_fixed_point
+
+    pb = atlas_problem(FITTED)
+    fp = find_fixed_point(pb, fallback=False)
+    assert fp.converged
+    smap = StrideMap(pb)
+    one = ShootingNLP(pb, fp.state, fp.parameters)
+    stride = ShootingNLP.stride(pb, fp.state, smap.default_parameters())
+    return pb, smap, fp, one, stride
+
+
+def _values(nlp, expr, w):
+    return ca.Function("v", [nlp.w], [expr])(w).full().ravel()
+
+
+def test_stride_nlp_leg_curves_are_the_simulators(fitted):
+    """At the symmetric fitted gait, each leg's model curve in the stride NLP's error rows
+    (error + that side's human curve, the subject's two different sides) equals the
+    simulator's curve of that leg (stride_report) at every one of the 101 cycle points to
+    2e-3 deg (of a 57 deg knee range; the largest gap is at 0 %, which the NLP extrapolates
+    from its first two samples after heel strike), and to 1e-4 deg at the median."""
+    pb, smap, fp, _, stride = fitted
+    sides = load_side_curves(SUBJECT)
+    errs = stride_curve_errors(stride, sides, ("knee", "hip"))
+    assert set(errs) == set(side_targets(("knee", "hip")))
+    rep = stride_report(smap, fp.state, smap.default_parameters())
+    for side in ("left", "right"):
+        h = sides.side(side).resample(101)
+        for joint in ("knee", "hip"):
+            model = _values(stride, errs[f"{side}.{joint}"][0], stride.w0) + \
+                getattr(h, f"{joint}_deg")
+            sim = rep["curves"][side][f"{joint}_deg"].to_numpy()
+            gap = np.abs(model - sim)
+            assert gap.max() < 2e-3 and np.median(gap) < 1e-4, (side, joint, gap.max())
+
+
+def test_stride_objective_at_equal_sides_is_twice_the_step_objective(fitted):
+    """With a per-side curve set whose two sides are the bundled mean curves and the
+    symmetric walker, the stride objective (sum over legs of 1 - R^2 of knee and hip) at
+    the one-step fit's gait is twice the one-step objective, to 1e-9 relative: at the
+    NLPs' own starting points and at a perturbed one-step point repeated twice (the rows
+    agree as functions of the unknowns, not only on the orbit)."""
+    *_, one, stride = fitted
+    h = load_gait_curves("female_fast")
+    sides = SideCurves(h, h, h.source, "equal sides")
+    e1, e2 = curve_errors(one, h), stride_curve_errors(stride, sides)
+
+    def objective(nlp, errs, w):
+        return sum(float(_values(nlp, ca.sumsqr(e) / ss, w)[0]) for e, ss in errs.values())
+
+    f1, f2 = objective(one, e1, one.w0), objective(stride, e2, stride.w0)
+    assert f1 > 0.1  # the comparison is of a non-trivial misfit
+    assert abs(f2 - 2 * f1) < 1e-9 * f1
+    rng = np.random.default_rng(3)
+    w1 = one.w0 * (1 + 1e-4 * rng.standard_normal(one.w0.size))
+    ns, n1 = one.xs.shape[0], len(one.specs)
+    xs, T, X = w1[:ns], w1[ns: ns + n1], w1[ns + n1:]
+    w2 = np.r_[xs, T, T, X, X, xs]
+    f1p, f2p = objective(one, e1, w1), objective(stride, e2, w2)
+    assert abs(f1p - f1) > 1e-6 * f1  # the perturbation moves the objective
+    assert abs(f2p - 2 * f1p) < 1e-9 * f1p
+
+
+def test_stride_free_names_and_bounds(fitted):
+    """--side frees one leg's compliance only, named as the stride's physical parameters;
+    the stride's stability bound and verdict are the per-step ones squared."""
+    from pdw_casadi.fit.stride_fit import StrideFitOptions, stride_free_names
+
+    pb, smap, fp, *_ = fitted
+    both = stride_free_names(pb, StrideFitOptions())
+    right = stride_free_names(pb, StrideFitOptions(side="right", free=("k_ankle", "k_knee"),
+                                                   free_slope=True))
+    assert both == tuple(f"{s}.{k}" for s in ("left", "right") for k in pb.compliance_names)
+    assert right == ("right.k_ankle", "right.k_knee", "slope")
+    assert set(both) <= set(smap.parameter_names) and set(right) <= set(smap.parameter_names)
+    with pytest.raises(ValueError, match="side must be"):
+        stride_free_names(pb, StrideFitOptions(side="middle"))
+    opts = StrideFitOptions(max_radius=0.91)
+    assert opts.stride_radius_bound == pytest.approx(0.9 ** 2)
+    assert opts.stride_max_radius == pytest.approx(0.91 ** 2)
+
+
+@pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 8 min on 2 shared cores
+def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
+    """pdw-fit on a real subject's per-side file: the stride fit re-simulates as a stable
+    (stride radius <= 0.91^2) valid stride (20 steps within 1e-6 of the NLP), each leg is
+    scored against its own side, the objective is no worse than the symmetric start's, and
+    the NLP objective is the re-simulated sum of 1 - R^2 (1e-3 relative)."""
+    from pdw_casadi.cli import fit_main
+
+    out = tmp_path / "fit"
+    code = fit_main(["--gait", str(SUBJECT), "--out", str(out), "--quiet"])
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    print(printed)
+    assert code == 0 and summary["accepted"]
+    assert summary["stride_spectral_radius"] <= 0.91 ** 2
+    assert summary["valid"] and summary["resimulation_deviation"] < 1e-6
+    legs, start = summary["legs"], summary["start"]["scores"]
+    miss = sum(1 - legs[s][f"r2_{j}"] for s in ("left", "right") for j in ("knee", "hip"))
+    miss0 = sum(1 - start[s][f"r2_{j}"] for s in ("left", "right") for j in ("knee", "hip"))
+    assert miss <= miss0 + 1e-6
+    assert abs(summary["objective"] - miss) <= 1e-3 * miss
+    assert set(summary["legs"]["right"]["compliance"]) == set(atlas_problem().compliance)
+    for name in ("summary.json", "curves.csv", "fit.png", "table.md"):
+        assert (out / name).is_file()
