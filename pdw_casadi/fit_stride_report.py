@@ -21,6 +21,7 @@ from .gait_data import SIDES
 from .jsonio import write_json
 from .plots import plot_fit
 from .stride import StrideMap
+from .units import COMPLIANCE_PREFIXES, summary_units
 
 JOINTS = ("knee", "hip", "thigh")
 
@@ -32,6 +33,11 @@ def _pick(res: StrideFitResult) -> tuple[StrideCandidate | None, bool]:
     if not res.candidates:
         return None, False
     return max(res.candidates, key=lambda c: c.mean_score(res.targets)), False
+
+
+def _unit(name: str) -> str:
+    """`` (N m/rad)`` for a compliance name, by its prefix."""
+    return next((f" ({u})" for p, u in COMPLIANCE_PREFIXES if name.startswith(p)), "")
 
 
 def _f(v, fmt="{:.3f}") -> str:
@@ -79,7 +85,7 @@ def _table(res: StrideFitResult, cand: StrideCandidate | None, comp: dict | None
     rep, fp = cand.report, cand.fixed_point
     text += ("\n| compliance | start left | start right | left | right |\n"
              "|---|---|---|---|---|\n" + "".join(
-                 f"| {k} | {_f(start_comp['left'][k], '{:.5g}')} | "
+                 f"| {k}{_unit(k)} | {_f(start_comp['left'][k], '{:.5g}')} | "
                  f"{_f(start_comp['right'][k], '{:.5g}')} | {_f(comp['left'][k], '{:.5g}')} | "
                  f"{_f(comp['right'][k], '{:.5g}')} |\n" for k in comp["left"]))
     legs = rep["legs"]
@@ -177,5 +183,11 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
             f"{cand.report['step_length_asymmetry_pct']:+.2f} / "
             f"{cand.report['step_time_asymmetry_pct']:+.2f} %   stride radius "
             f"{cand.fixed_point.spectral_radius:.4f} ({verdict})")
+    summary["units"] = summary_units(summary, StrideMap(problem).hs)
+    # here the legs are the physical legs, not the step's stance and swing roles
+    summary["units"]["legs"] = (
+        "left, right: the physical legs; R^2 dimensionless, names carry their unit "
+        "(step_length_m, step_time_s, *_pct); compliance " + ", ".join(
+            f"{p}* {u}" for p, u in COMPLIANCE_PREFIXES))
     write_json(out / "summary.json", summary)
     return summary
