@@ -441,6 +441,16 @@ def _stride_outputs(smap, res, out: Path, outputs) -> dict:
     return {"stride": rep}
 
 
+def _fit_output(outputs: Outputs, opts) -> Path:
+    """Create a fit's output folder and point IPOPT's log at a fresh ``ipopt.log`` in it."""
+    out = outputs.create()
+    outputs.notes.append(f"the report files are written only at the end, into {out}")
+    log_file = out / "ipopt.log"
+    log_file.unlink(missing_ok=True)
+    opts.log_file = str(log_file)
+    return out
+
+
 def fit_main(argv: Sequence[str] | None = None) -> int:
     """``pdw-fit --gait FILE``: fit the compliance and a stable periodic gait to human curves.
 
@@ -543,11 +553,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         from .fit import check_targets
 
         check_targets(problem, human, opts)
-        out = outputs.create()
-        outputs.notes.append(f"the report files are written only at the end, into {out}")
-        log_file = out / "ipopt.log"
-        log_file.unlink(missing_ok=True)
-        opts.log_file = str(log_file)
+        out = _fit_output(outputs, opts)
         summary = fit_and_report(problem, human, opts, out, workers=args.workers,
                                  scheduler=args.scheduler,
                                  log=lambda m: print(m, file=sys.stderr, flush=True))
@@ -594,11 +600,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
                             rounds=args.rounds, verbose=not args.quiet,
                             side=args.side or "both", start=args.stride_start)
     check_stride_targets(problem, sides, opts)
-    out = outputs.create()
-    outputs.notes.append(f"the report files are written only at the end, into {out}")
-    log_file = out / "ipopt.log"
-    log_file.unlink(missing_ok=True)
-    opts.log_file = str(log_file)
+    out = _fit_output(outputs, opts)
     summary = fit_stride_and_report(problem, sides, opts, out,
                                     log=lambda m: print(m, file=sys.stderr, flush=True))
     for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
