@@ -10,7 +10,8 @@ constraints) and the validity check of fixed points all read them from there.
 
 A walker that declares nothing gets its margins from its output names
 (:func:`output_margin`, :func:`check_margin`): ``N_*`` normal forces, ``copmargin_*``
-centre-of-pressure margins, ``clearance_*`` clearances (after 20 % of the phase: a swing
+centre-of-pressure margins, ``arcmargin_*`` a rolling foot's contact inside its arc,
+``clearance_*`` clearances (after 20 % of the phase: a swing
 foot that just lifted off starts on the ground), ``impulse*`` impact checks. That naming
 rule lives here only.
 """
@@ -32,6 +33,7 @@ class MarginKind(StrEnum):
     COP = "cop"  # m, centre of pressure inside the foot
     CLEARANCE = "clearance"  # m, swing foot above the ground
     IMPULSE = "impulse"  # N s (or m for an impulse's centre of pressure), at an impact
+    ARC = "arc"  # rad, a rolling foot's contact inside its arc's span
 
 
 @dataclass(frozen=True)
@@ -85,9 +87,12 @@ CLEARANCE = Margin(MarginKind.CLEARANCE, "min_clearance", "m", active_after=0.2)
 IMPULSE = Margin(MarginKind.IMPULSE, None, "N s")
 #: where an impulse acts on a foot, as a distance from the foot's end (must be > 0)
 IMPULSE_COP = Margin(MarginKind.IMPULSE, None, "m")
+#: a rolling foot's contact angle short of its arc's span (must be > 0)
+ARC_SPAN = Margin(MarginKind.ARC, None, "rad")
 
 #: the default naming rule: output-name prefix -> margin (phase outputs)
-OUTPUT_PREFIXES = (("N_", NORMAL_FORCE), ("copmargin_", COP), ("clearance_", CLEARANCE))
+OUTPUT_PREFIXES = (("N_", NORMAL_FORCE), ("copmargin_", COP), ("clearance_", CLEARANCE),
+                   ("arcmargin_", ARC_SPAN))
 #: transition checks whose name starts so are validity margins (others, such as a foot's
 #: rise speed after an impact, are sign conditions of the impact only)
 CHECK_PREFIXES = (("impulse", IMPULSE),)

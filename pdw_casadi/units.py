@@ -41,7 +41,7 @@ DESCRIBED = {
 }
 #: compliance units by name prefix (stiffness, damping, angles)
 COMPLIANCE_PREFIXES = (("k_", "N m/rad"), ("c_", "N m s/rad"), ("theta_", "rad"),
-                       ("phi_", "rad"), ("ankle_rest", "rad"))
+                       ("phi_", "rad"), ("ankle_rest", "rad"), ("r_", "m"))
 #: body (anthropometry) units by name prefix: lengths, masses, inertias about the COM
 BODY_PREFIXES = (("l_", "m"), ("m_", "kg"), ("J_", "kg m^2"))
 

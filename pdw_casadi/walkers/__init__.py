@@ -13,6 +13,7 @@ from __future__ import annotations
 from . import (  # noqa: F401 (registers)
     humanlike_6link,
     humanlike_6link_ankle,
+    humanlike_6link_arc,
     humanlike_6link_heeloff,
     point_foot,
 )

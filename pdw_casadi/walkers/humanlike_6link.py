@@ -18,6 +18,7 @@ from ..errors import ProblemError
 from ..hybrid import FAILURE, GUARD, SWITCH, Event, WalkerModel, make_phase, make_transition
 from ..margins import IMPULSE, IMPULSE_COP
 from ..mechanics.planar import Body, ContactSet, PlanarSystem, direction
+from ..mechanics.rolling import RollingArc
 from ..mechanics.torques import JointTorque, engageable_spring_damper, spring_damper, total_torque
 from .registry import register
 
@@ -74,6 +75,27 @@ def _height(point, n):
     return ca.dot(point, n)
 
 
+#: rad, the trailing foot's contact angle on its toe arc must have exceeded this in phase
+#: III (it starts flat, at 0) before its coming back to 0 counts
+ARC_FLAT_ARM = 1e-6
+
+
+def _arc_outputs(arc: RollingArc, tag: str) -> dict:
+    """The contact on a rolling arc: its angle from the tangent point (deg), its arc
+    length from there (m) and the span margin (rad, a validity margin: the contact stays on
+    the arc)."""
+    return {f"arc_{tag}_deg": arc.contact_angle * 180 / math.pi,
+            f"arc_{tag}_m": arc.contact_length, f"arcmargin_{tag}": arc.span_margin}
+
+
+def _arc_events(arc: RollingArc, tag: str, armed: bool) -> list[Event]:
+    """A toe arc's contact angle falling back to 0: the foot is flat again, its heel
+    reaching the ground (a broken gait pattern: the flat sole would sink)."""
+    return [Event(f"{tag}_arc_flat", arc.contact_angle, -1, FAILURE,
+                  "rolling foot comes back flat onto the ground (contact leaves its toe arc)",
+                  arm_above=ARC_FLAT_ARM if armed else 0.0)]
+
+
 @register(
     "humanlike_6link",
     description="The humanlike 6-link walker: flat feet, compliant ankles, engageable knees.",
@@ -92,7 +114,10 @@ def build(problem, ext=None) -> WalkerModel:
     torque elements, events and mode rules at the transitions), e.g.
     :data:`pdw_casadi.walkers.humanlike_6link_ankle.EXTENSION`; None: the paper's walker.
     An extension whose ``forefoot_rocker`` is true adds the toe-rocker phase ``II_toe``
-    (:mod:`pdw_casadi.walkers.humanlike_6link_heeloff`).
+    (:mod:`pdw_casadi.walkers.humanlike_6link_heeloff`); one whose ``rolling_feet`` is true
+    gives the feet toe and heel arcs (compliance keys ``r_toe``, ``r_heel``, m) that roll
+    without slip wherever the walker pivots on a toe or heel
+    (:mod:`pdw_casadi.walkers.humanlike_6link_arc`).
     """
     a = dict(problem.anthropometry)
     comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
@@ -194,13 +219,30 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
 
     lf, lf2 = a1["l_f"], a2["l_f"]
     flat1 = lf * ca.cos(qf1)
-    contact_I = ContactSet("I", ca.vertcat(toe2, xt, yt, flat1),
+    # the pivots of phases I and III and of the impacts: points, or (rolling feet) arcs at
+    # the toe and heel that roll without slip (rows: the arc's rolling point, see RollingArc)
+    arcs = bool(getattr(ext, "rolling_feet", False))
+    if arcs and getattr(ext, "forefoot_rocker", False):
+        raise ValueError("rolling feet with the forefoot rocker: phase II_toe pivots on the "
+                         "toe point (not built)")
+    if arcs:
+        span = ext.arc_span
+        toe1_arc = RollingArc(toe1, qf1, c1["r_toe"], n, t_slope, gamma, span, toe=True)
+        toe2_arc = RollingArc(toe2, qf2, c2["r_toe"], n, t_slope, gamma, span, toe=True)
+        heel2_arc = RollingArc(heel2, qf2, c2["r_heel"], n, t_slope, gamma, span, toe=False)
+        toe1_pivot, toe2_pivot, heel2_pivot = toe1_arc.rows, toe2_arc.rows, heel2_arc.rows
+        toe2_low, heel2_low = toe2_arc.lowest_height, heel2_arc.lowest_height
+    else:
+        toe1_pivot, toe2_pivot, heel2_pivot = ca.vertcat(xt, yt), toe2, heel2
+        toe2_low, heel2_low = _height(toe2, n), _height(heel2, n)
+    contact_I = ContactSet("I", ca.vertcat(toe2_pivot, xt, yt, flat1),
                            ("toe2_x", "toe2_y", "toe1_x", "toe1_y", "flat1"))
     contact_II = ContactSet("II", ca.vertcat(xt, yt, flat1), ("toe1_x", "toe1_y", "flat1"))
     contact_toe_rocker = ContactSet("II_toe", ca.vertcat(xt, yt), ("toe1_x", "toe1_y"))
-    contact_III = ContactSet("III", ca.vertcat(xt, yt, heel2),
+    contact_III = ContactSet("III", ca.vertcat(toe1_pivot, heel2_pivot),
                              ("toe1_x", "toe1_y", "heel2_x", "heel2_y"))
-    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(xt, yt, toe2, lf2 * ca.cos(qf2)),
+    contact_foot_strike = ContactSet("foot_strike",
+                                     ca.vertcat(toe1_pivot, toe2, lf2 * ca.cos(qf2)),
                                      ("toe1_x", "toe1_y", "toe2_x", "toe2_y", "flat2"))
 
     theta1, theta2 = q2 - q1, q3 - q4
@@ -258,13 +300,14 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
         Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
         Event("cop1_at_toe", m1a, -1, FAILURE, "centre of pressure reaches the stance toe"),
         Event("cop1_at_heel", m1b, -1, FAILURE, "centre of pressure reaches the stance heel"),
+        *(_arc_events(toe2_arc, "toe2", armed=False) if arcs else ()),
         *common_events,
     ]
     # Phase II: single stance on the flat foot, swing leg free
     ph2 = make_phase(sysm, F_q, "II", contact_II)
     lam = ph2.lam
     N1, m1a, m1b, outs2 = flat_foot(lam[0], lam[1], lam[2], qf1, "foot1")
-    ph2.outputs = {**outs2, "clearance_toe2": _height(toe2, n)}
+    ph2.outputs = {**outs2, "clearance_toe2": toe2_low}
     rocker = bool(getattr(ext, "forefoot_rocker", False))
     if rocker:
         # the centre of pressure reaching the toe is the heel-off guard, not a broken
@@ -272,9 +315,9 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
         del ph2.outputs["copmargin_foot1"]
         ph2.outputs["copmargin_heel_foot1"] = lf - outs2["cop_foot1_from_toe"]
     heel_strike_event = Event(
-        "heel_strike", _height(heel2, n), -1, GUARD, "swing heel reaches the ground",
+        "heel_strike", heel2_low, -1, GUARD, "swing heel reaches the ground",
         require=ca.dot(heel2 - heel1, t_slope), require_reason="heel_strike_behind")
-    scuff_event = Event("toe_scuff", _height(toe2, n), -1, FAILURE, "swing toe hits the ground",
+    scuff_event = Event("toe_scuff", toe2_low, -1, FAILURE, "swing toe hits the ground",
                         arm_above=1e-4)
     # with the forefoot rocker the centre of pressure reaching the stance toe lifts the heel
     # (the flat-foot couple passes through zero: no impact) instead of breaking the gait
@@ -298,7 +341,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
         N_toe1 = ca.dot(lam[0:2], n)
         heel1_h = _height(heel1, n)
         ph2t.outputs = {"N_toe1": N_toe1, "F_toe1_x": lam[0], "F_toe1_y": lam[1],
-                        "clearance_toe2": _height(toe2, n)}
+                        "clearance_toe2": toe2_low}
         ph2t.events = [
             heel_strike_event,
             scuff_event,
@@ -317,11 +360,16 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
     N_heel2 = ca.dot(lam[2:4], n)
     ph3.outputs = {"N_toe1": N_toe1, "N_heel2": N_heel2, "F_toe1_x": lam[0],
                    "F_toe1_y": lam[1], "F_heel2_x": lam[2], "F_heel2_y": lam[3]}
+    if arcs:
+        ph1.outputs.update(_arc_outputs(toe2_arc, "toe2"))
+        ph3.outputs.update({**_arc_outputs(toe1_arc, "toe1"), **_arc_outputs(heel2_arc, "heel2")})
     ph3.events = [
         Event("foot_strike", qf2 - (ca.pi / 2 - gamma), -1, GUARD,
               "leading foot rotates flat onto the ground"),
         Event("toe1_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
         Event("heel2_lift", N_heel2, -1, FAILURE, "leading heel normal force reaches zero"),
+        # the trailing foot leaves flat at heel strike (contact angle 0): armed
+        *(_arc_events(toe1_arc, "toe1", armed=True) if arcs else ()),
         *common_events,
     ]
 
@@ -385,12 +433,16 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
                             ca.vertcat(s_q1, s_q2, s_q3, s_qf1, 0, 0))
     # toe2 height = 0: l_s cos(q4 + gamma) = knee2.n + l_ft d(qf2).n, d(a).n = -cos(a + gamma)
     rhs_c = (_height(knee2_s, n) - a2["l_ft"] * ca.cos(s_qf2 + gamma)) / a2["l_s"]
+    if arcs:
+        # rolling feet: the toe arc's centre is r_toe above the ground instead,
+        # C.n = toe2.n + r_toe u(qf2).n with u(a).n = sin(a + gamma)
+        rhs_c = rhs_c + c2["r_toe"] * (ca.sin(s_qf2 + gamma) - 1) / a2["l_s"]
     root = ca.acos(ca.fmin(ca.fmax(rhs_c, -1), 1))
     r_plus, r_minus = -gamma + root, -gamma - root
     s_q4 = ca.if_else(ca.fabs(r_plus - s_q3) < ca.fabs(r_minus - s_q3), r_plus, r_minus)
     q_s = ca.vertcat(s_q1, s_q2, s_q3, s_q4, s_qf1, s_qf2, 0, 0)
-    # trailing toe at rest: solve for (dq4, dqf2)
-    v_toe2 = ca.jacobian(toe2, q)
+    # trailing toe at rest (rolling feet: its arc rolls, not slips): solve for (dq4, dqf2)
+    v_toe2 = ca.jacobian(toe2_pivot, q)
     Jt = ca.substitute(v_toe2, q, q_s)
     A = ca.horzcat(Jt[:, 3], Jt[:, 5])
     b = -(Jt[:, 0] * s_d1 + Jt[:, 1] * s_d2 + Jt[:, 2] * s_d3)

@@ -58,6 +58,10 @@ class AnkleExtension:
     #: the forefoot rocker (heel off in single support, phase ``II_toe``): see
     #: :mod:`pdw_casadi.walkers.humanlike_6link_heeloff`
     forefoot_rocker: bool = False
+    #: rolling toe and heel arcs (compliance keys r_toe, r_heel) of angular span
+    #: ``arc_span`` (rad): see :mod:`pdw_casadi.walkers.humanlike_6link_arc`
+    rolling_feet: bool = False
+    arc_span: float = 0.0
     #: at the section (just after foot strike): the trailing ankle's clutch is engaged (it
     #: engaged in the previous stance), the leading one armed, no loading damper
     initial_mode = {"load2": 0.0, "clutch1": 0.0, "clutch2": 1.0, "armc1": 1.0}
