@@ -2,8 +2,9 @@
 
     python scripts/arc_seed.py --r-toe 0.05 --r-heel 0.05 --out seed.json [--n-min 10]
 
-The ankle walker's shipped gait is the rolling-foot walker's at r_toe = r_heel = 0
-(``problems/humanlike_6link_arc.toml``). At its compliance the gait leaves its validity
+The start is the ankle walker's shipped gait (``problems/humanlike_6link_ankle.toml``)
+carried to the rolling-foot walker at r_toe = r_heel = 0, where it is the same gait
+(``--r-toe 0 --r-heel 0`` writes that start). At its compliance the gait leaves its validity
 margins within micrometres of radius (the phase-I stance normal force sits on its 5 N
 bound), so this script carries it to the radii by the design continuation
 (:func:`pdw_casadi.design.continue_design`): the radii move linearly from 0 to the targets,
@@ -31,16 +32,23 @@ from pdw_casadi.timing import fixed_point_timing
 RADII = ("r_toe", "r_heel")
 
 
+def start_problem():
+    """The rolling-foot walker at the ankle walker's shipped gait and compliance, radii 0."""
+    ankle = load_problem("humanlike_6link_ankle")
+    return load_problem("humanlike_6link_arc").replace(
+        compliance={**ankle.compliance, "r_toe": 0.0, "r_heel": 0.0},
+        slope=ankle.slope).with_state(ankle.state_vector())
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--r-toe", type=float, required=True, help="toe arc radius to reach (m)")
     ap.add_argument("--r-heel", type=float, required=True, help="heel arc radius to reach (m)")
-    ap.add_argument("--problem", default="humanlike_6link_arc", help="start problem")
     ap.add_argument("--n-min", type=int, default=10, help="continuation steps at least")
     ap.add_argument("--out", type=Path, required=True, help="JSON file to write")
     args = ap.parse_args(argv)
 
-    pb = load_problem(args.problem)
+    pb = start_problem()
     names = pb.parameter_names
     theta0 = pb.parameter_vector()
     theta1 = theta0.copy()

@@ -26,7 +26,8 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = ("humanlike_6link", "humanlike_6link_ankle_load", "humanlike_6link_ankle_quasistiff",
-         "humanlike_6link_ankle_clutch", "humanlike_6link_ankle", "humanlike_6link_heeloff")
+         "humanlike_6link_ankle_clutch", "humanlike_6link_ankle", "humanlike_6link_heeloff",
+         "humanlike_6link_arc")
 
 
 def _binding(summary: dict, problem: str, n: int = 2) -> str:
