@@ -59,6 +59,10 @@ def main(argv=None) -> int:
                     help="NLP: comma-separated body values of the prosthetic leg designed "
                          "beside its compliance (among l_sc,J_s,l_fc,J_f; bounds in "
                          "DesignNLPOptions.mass_distribution_bounds)")
+    ap.add_argument("--mass-bounds", default="",
+                    help="NLP: bounds of the designed mass distribution as multiples of the "
+                         "sound leg's values, e.g. l_fc=0.1:4,J_f=0.05:3 (others: "
+                         "DesignNLPOptions.mass_distribution_bounds)")
     ap.add_argument("--max-step", type=float, default=DesignNLPOptions.max_step,
                     help="NLP: largest mass homotopy step (default: %(default)s)")
     ap.add_argument("--max-solves", type=int, default=DesignNLPOptions.max_solves,
@@ -71,12 +75,23 @@ def main(argv=None) -> int:
     base = load_problem(args.start) if args.start else atlas_problem(args.entry)
     t0 = time.perf_counter()
     dist = tuple(k for k in args.mass_distribution.split(",") if k)
+    bounds = dict(DesignNLPOptions().mass_distribution_bounds)
+    for item in (i for i in args.mass_bounds.split(",") if i):
+        key, _, rng = item.partition("=")
+        if key not in bounds or rng.count(":") != 1:
+            ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among "
+                     f"{', '.join(bounds)}")
+        lo, hi = (float(v) for v in rng.split(":"))
+        if not 0.0 < lo < hi:
+            ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
+        bounds[key] = (lo, hi)
     if args.method == "nlp":
         res = design_prosthesis_nlp(base, lighter=args.lighter,
                                     options=DesignNLPOptions(first_step=args.first_step,
                                                             diagnose=args.diagnose,
                                                             max_iter=args.max_iter,
                                                             mass_distribution=dist,
+                                                            mass_distribution_bounds=bounds,
                                                             free_slope=args.free_slope,
                                                             t_min_s=args.t_min,
                                                             max_step=args.max_step,

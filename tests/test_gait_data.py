@@ -282,3 +282,24 @@ def test_pdw_fit_per_side_option_errors(argv, message, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and message in err
     assert not out.exists()
+
+
+def test_two_standard_files_are_the_per_side_file(tmp_path, sides_frame):
+    """--gait L.csv --gait-right R.csv: each side's standard one-curve file (the per-side
+    file's columns renamed) gives the same curves as the per-side file, sample for sample."""
+    from pdw_casadi.gait_data import load_side_curves
+
+    both = load_side_curves(SIDES_FILE)
+    files = {}
+    for side in ("left", "right"):
+        cols = {c: c.replace(f"_{side}_", "_") for c in sides_frame.columns
+                if f"_{side}_" in c}
+        frame = sides_frame[["cycle_pct", *cols]].rename(columns=cols)
+        files[side] = tmp_path / f"{side}.csv"
+        frame.to_csv(files[side], index=False)
+    two = load_side_curves(files["left"], files["right"])
+    for side in ("left", "right"):
+        a, b = both.side(side), two.side(side)
+        for joint in ("knee", "hip", "thigh"):
+            assert np.array_equal(getattr(a, f"{joint}_deg"), getattr(b, f"{joint}_deg"))
+    assert np.abs(two.left.knee_deg - two.right.knee_deg).max() > 1.0
