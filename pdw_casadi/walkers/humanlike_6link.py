@@ -50,6 +50,10 @@ PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
 LIMIT_CYCLE_LEGS = (("q1", "q2"), ("q4", "q3"))
 LEG_SEGMENTS = ("shank", "thigh")
 CURVE_JOINTS = ("knee", "hip")
+#: the phases with rolling feet (toe and heel arcs): see humanlike_6link_arc
+ARC_PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe arc rolling",
+                          "II": PHASE_DESCRIPTIONS["II"],
+                          "III": "trailing toe arc + leading heel arc rolling"}
 #: what touches the ground in each phase, (leg 1, leg 2): see pdw_casadi.timing
 PHASE_CONTACTS = {"I": ("flat", "toe"), "II": ("flat", None), "III": ("toe", "heel")}
 #: instants of the paper's Fig. 4: a (foot strike), b (toe-off), c (heel strike)

@@ -37,9 +37,7 @@ ARC_SPAN = math.radians(60.0)
 EXTRA_COMPLIANCE = ("r_toe", "r_heel")
 COMPLIANCE_KEYS = ankle.COMPLIANCE_KEYS + EXTRA_COMPLIANCE
 NONNEGATIVE_COMPLIANCE = ankle.NONNEGATIVE_COMPLIANCE + EXTRA_COMPLIANCE
-PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe arc rolling",
-                      "II": base.PHASE_DESCRIPTIONS["II"],
-                      "III": "trailing toe arc + leading heel arc rolling"}
+PHASE_DESCRIPTIONS = base.ARC_PHASE_DESCRIPTIONS
 EXTENSION = replace(ankle.EXTENSION, compliance_keys=ankle.EXTRA_COMPLIANCE + EXTRA_COMPLIANCE,
                     rolling_feet=True, arc_span=ARC_SPAN)
 
