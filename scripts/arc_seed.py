@@ -10,7 +10,8 @@ bound), so this script carries it to the radii by the design continuation
 (:func:`pdw_casadi.design.continue_design`): the radii move linearly from 0 to the targets,
 the fixed point and every other compliance value (relative change, least norm) are the
 unknowns, and a validity margin that would break is held at its requirement + 10 %
-(``DesignOptions.hold_margins``). The end point is re-solved by Newton
+(``DesignOptions.hold_margins``). The end point, its compliance put back inside the
+problem's bounds, is re-solved by Newton
 (:func:`pdw_casadi.fixed_point.find_fixed_point`) and written as JSON: ``fixed_point``,
 ``compliance``, ``slope`` (``pdw-fit --state FILE --compliance FILE`` read them), the
 spectral radius, validity, gait timing and the margins held on the way.
@@ -22,6 +23,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from pdw_casadi.design import DesignOptions, continue_design
 from pdw_casadi.fixed_point import find_fixed_point
@@ -61,7 +64,12 @@ def main(argv=None) -> int:
     lam = path.path[-1][0]
     print(f"continuation reached lambda = {lam:.4f} ({len(path.path)} points, "
           f"{path.wall_time_s:.0f} s); held: {sorted(path.held)}")
-    x, theta = path.last.state, path.last.theta
+    x, theta = path.last.state, path.last.theta.copy()
+    # the design does not know the fit's bounds: a value that drifted past one (ankle_rest
+    # starts on its 0.6 rad bound) is put back on it before the fixed point is re-solved
+    for i, n in enumerate(names[:-1]):
+        lo, hi = pb.compliance_bounds.get(n, (-np.inf, np.inf))
+        theta[i] = min(max(theta[i], lo), hi)
     fp = find_fixed_point(pb, x, theta, tol=1e-10)
     t = fixed_point_timing(pb, fp.state, theta)
     comp, slope = pb.split_parameters(theta)
