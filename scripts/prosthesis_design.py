@@ -69,6 +69,9 @@ def main(argv=None) -> int:
                     help="NLP: at most this many NLP solves (default: %(default)s)")
     ap.add_argument("--free-slope", action="store_true",
                     help="NLP: the slope free too (the walker's energy supply)")
+    ap.add_argument("--symmetry-tol", type=float, default=DesignNLPOptions.symmetry_tol_pct,
+                    help="NLP: largest accepted |step-length| and |step-time| asymmetry, %% "
+                         "(default: %(default)s: equal steps)")
     ap.add_argument("--t-min", type=float, default=DesignNLPOptions.t_min_s,
                     help="NLP: shortest gait segment, s (default: %(default)s)")
     args = ap.parse_args(argv)
@@ -94,6 +97,7 @@ def main(argv=None) -> int:
                                                             mass_distribution_bounds=bounds,
                                                             free_slope=args.free_slope,
                                                             t_min_s=args.t_min,
+                                                            symmetry_tol_pct=args.symmetry_tol,
                                                             max_step=args.max_step,
                                                             max_solves=args.max_solves))
         reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
