@@ -109,8 +109,7 @@ class ProsthesisResult:
     wall_time_s: float
     #: the NLP design's solves, one per homotopy step (:class:`DesignSolve`)
     solves: list = field(default_factory=list)
-    #: the prosthetic leg's designed body values (DesignNLPOptions.mass_distribution and
-    #: foot_geometry; m, kg m^2)
+    #: the prosthetic leg's designed mass distribution (DesignNLPOptions.mass_distribution)
     mass_distribution: dict = field(default_factory=dict)
 
     @property
@@ -248,13 +247,6 @@ class DesignNLPOptions:
     mass_distribution: tuple = ()
     mass_distribution_bounds: dict = field(default_factory=lambda: dict(
         l_sc=(0.6, 1.3), J_s=(0.3, 1.5), l_fc=(0.5, 1.5), J_f=(0.3, 1.5)))
-    #: the prosthetic foot's geometry designed too (among l_ft, l_fh: the keel's length
-    #: ahead of the ankle and the heel's behind it, m; the foot length follows as their
-    #: sum), each within ``foot_geometry_bounds`` x the sound foot's and counted in the
-    #: least-change objective; () : the sound foot's
-    foot_geometry: tuple = ()
-    foot_geometry_bounds: dict = field(default_factory=lambda: dict(
-        l_ft=(0.85, 1.15), l_fh=(0.67, 1.67)))
     #: the slope free too (the walker's energy supply; shared by both legs, not in the
     #: objective; bounds of ShootingNLP.bounds). Measured on one case (continuing the 5 %
     #: mass-distribution design): 6 % solves (42 iterations, slope 0.1484 -> 0.1458 rad;
@@ -455,15 +447,14 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         problem, done0 = sound_problem(problem, side)
     names = list(physical_parameter_names(problem))
     other = "left" if side == "right" else "right"
-    body_design = (*opts.mass_distribution, *opts.foot_geometry)
-    body_bounds = {**opts.mass_distribution_bounds, **opts.foot_geometry_bounds}
-    dist = [f"{side}.{k}" for k in body_design]
+    dist = [f"{side}.{k}" for k in opts.mass_distribution]
     keys = [f"{side}.{k}" for k in free]
     theta_sound = physical_parameter_vector(problem)
     sound = {f"{side}.{k}": float(theta_sound[names.index(f"{other}.{k}")])
-             for k in (*free, *body_design)}
-    dist_bounds = {f"{side}.{k}": tuple(f * sound[f"{side}.{k}"] for f in body_bounds[k])
-                   for k in body_design}
+             for k in (*free, *opts.mass_distribution)}
+    dist_bounds = {f"{side}.{k}": tuple(f * sound[f"{side}.{k}"]
+                                        for f in opts.mass_distribution_bounds[k])
+                   for k in opts.mass_distribution}
     shared = ("slope",) if opts.free_slope else ()
     if x0 is None:
         fp0 = find_stride_fixed_point(start, tol=1e-10)
@@ -523,10 +514,6 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             break
         step = min(2 * step, opts.max_step)
     last_level, x, theta = path[-1]
-    if opts.foot_geometry:  # the walker reads the sole as l_ft + l_fh; the file keeps l_f
-        theta = theta.copy()
-        theta[names.index(f"{side}.l_f")] = (theta[names.index(f"{side}.l_ft")]
-                                             + theta[names.index(f"{side}.l_fh")])
     final = prosthetic_problem(problem, last_level, side)
     designed = with_physical_parameters(final, theta).replace(
         name=f"{problem.name}_prosthesis",
@@ -536,7 +523,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                                  smap=smap)
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
     comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
-    mass = {k: float(theta[names.index(f"{side}.{k}")]) for k in body_design}
+    mass = {k: float(theta[names.index(f"{side}.{k}")]) for k in opts.mass_distribution}
     good = (ok and fp.converged and fp.valid
             and fp.spectral_radius <= opts.max_stride_radius
             and abs(report["step_length_asymmetry_pct"]) < 1.0

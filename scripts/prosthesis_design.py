@@ -63,10 +63,6 @@ def main(argv=None) -> int:
                     help="NLP: bounds of the designed mass distribution as multiples of the "
                          "sound leg's values, e.g. l_fc=0.1:4,J_f=0.05:3 (others: "
                          "DesignNLPOptions.mass_distribution_bounds)")
-    ap.add_argument("--foot-geometry", default="",
-                    help="NLP: comma-separated foot lengths of the prosthetic leg designed "
-                         "too (among l_ft,l_fh; bounds in "
-                         "DesignNLPOptions.foot_geometry_bounds)")
     ap.add_argument("--max-step", type=float, default=DesignNLPOptions.max_step,
                     help="NLP: largest mass homotopy step (default: %(default)s)")
     ap.add_argument("--max-solves", type=int, default=DesignNLPOptions.max_solves,
@@ -99,9 +95,6 @@ def main(argv=None) -> int:
                                                             max_iter=args.max_iter,
                                                             mass_distribution=dist,
                                                             mass_distribution_bounds=bounds,
-                                                            foot_geometry=tuple(
-                                                                k for k in args.foot_geometry
-                                                                .split(",") if k),
                                                             free_slope=args.free_slope,
                                                             t_min_s=args.t_min,
                                                             symmetry_tol_pct=args.symmetry_tol,
@@ -136,7 +129,7 @@ def main(argv=None) -> int:
     print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
                                                  for k, v in res.compliance.items()))
     if res.mass_distribution:
-        print("prosthetic-leg body values designed:", ", ".join(
+        print("prosthetic-leg mass distribution:", ", ".join(
             f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
     print(f"slope {res.problem.slope:.5f} rad")
     for sv in res.solves:

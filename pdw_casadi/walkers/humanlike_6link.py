@@ -221,9 +221,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 
-    # the sole runs from heel to toe: its length is l_fh + l_ft (= l_f, checked for a
-    # problem file), so a per-leg walker whose foot geometry is designed stays consistent
-    lf, lf2 = a1["l_ft"] + a1["l_fh"], a2["l_ft"] + a2["l_fh"]
+    lf, lf2 = a1["l_f"], a2["l_f"]
     flat1 = lf * ca.cos(qf1)
     # the pivots of phases I and III and of the impacts: points, or (rolling feet) arcs at
     # the toe and heel that roll without slip (rows: the arc's rolling point, see RollingArc)
