@@ -79,15 +79,31 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     dist = tuple(k for k in args.mass_distribution.split(",") if k)
     bounds = dict(DesignNLPOptions().mass_distribution_bounds)
+    unknown = [k for k in dist if k not in bounds]
+    if unknown:
+        ap.error(f"--mass-distribution: {', '.join(unknown)} not among {', '.join(bounds)}")
     for item in (i for i in args.mass_bounds.split(",") if i):
         key, _, rng = item.partition("=")
-        if key not in bounds or rng.count(":") != 1:
-            ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among "
-                     f"{', '.join(bounds)}")
-        lo, hi = (float(v) for v in rng.split(":"))
+        if key not in dist or rng.count(":") != 1:
+            ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among the "
+                     f"--mass-distribution keys ({', '.join(dist) or 'none given'})")
+        try:
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            ap.error(f"--mass-bounds: {item!r}: LO and HI must be numbers")
         if not 0.0 < lo < hi:
             ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
         bounds[key] = (lo, hi)
+    # the verdict asks for asymmetries below 1 %: the NLP's tolerance must lie inside it
+    if not 0.0 <= args.symmetry_tol < 1.0:
+        ap.error(f"--symmetry-tol must lie in [0, 1) %, got {args.symmetry_tol}")
+    nlp_only = [flag for flag, given in (
+        ("--start", args.start), ("--diagnose", args.diagnose),
+        ("--mass-distribution", dist), ("--free-slope", args.free_slope),
+        ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct))
+        if given]
+    if args.method == "continuation" and nlp_only:
+        ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
     if args.method == "nlp":
         res = design_prosthesis_nlp(base, lighter=args.lighter,
                                     options=DesignNLPOptions(first_step=args.first_step,

@@ -80,8 +80,10 @@ def test_zero_radii_step_is_the_ankle_walker():
 
 
 def test_energy_balance_closes_with_rolling_feet(arc_step):
-    """Rolling without slip does no work: start - end energy = damper work + impact and
-    spring losses, to the simulator's RK4 level (1e-6 J) at the shipped radii."""
+    """The step's energy books close at the shipped radii: start - end energy = damper work
+    + impact and spring losses, to the simulator's RK4 level (1e-6 J). Any ideal contact
+    does no work, so this checks the integration and the loss accounting; that the arcs
+    roll rather than slip is checked below (the material contact point at rest)."""
     _, res = arc_step
     st = res.steps[0]
     assert abs(st.energy_residual_J) < 1e-6

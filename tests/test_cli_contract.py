@@ -480,6 +480,9 @@ def test_commands_share_the_contract():
         assert created, name
         assert src.index("outputs.check()") < min(created), name
     assert "outputs.create()" in inspect.getsource(cli._fit_output)
+    # the per-side fit path validates its inputs before it creates the folder too
+    src = inspect.getsource(cli._fit_stride_body)
+    assert src.index("outputs.check()") < src.index("_fit_output(outputs"), "_fit_stride_body"
 
 
 def test_json_summary_of_a_simulation_round_trips(tmp_path, capsys):
