@@ -31,8 +31,11 @@ def main(argv=None) -> int:
     tab = pd.read_csv(args.sweep)
     sim = Simulator(pb)
     hs = sim.hs
-    state_cols = list(with_units(pd.DataFrame(columns=list(pb.state_names)), hs).columns)
-    par_cols = [c for c in tab.columns if c.startswith("param:")]
+    def columns(names):  # the sweep table's headers carry units
+        return list(with_units(pd.DataFrame(columns=list(names)), hs).columns)
+
+    state_cols = columns(pb.state_names)
+    par_cols = columns(f"param:{n}" for n in pb.parameter_names)
     swept = tab.columns[0]
     for _, row in tab.iterrows():
         if not row["converged"]:
@@ -44,7 +47,7 @@ def main(argv=None) -> int:
             print(f"{swept} = {row[swept]:.6g}: its step fails")
             continue
         phases = " / ".join(f"{n} {1e3 * d:.1f}" for n, d in t.phase_durations_s)
-        ds = ", ".join(f"{v:.2f}" for v in t.double_support_pct)
+        ds = ", ".join(f"{v:.2f}" for v in t.double_support_pct) or "none,"  # point feet
         print(f"{swept} = {row[swept]:.6g}: valid {bool(row['valid'])}, stable "
               f"{bool(row['stable'])}, rho {row['spectral_radius']:.4f}, double support "
               f"{ds} %, stance {t.stance_pct:.2f} %, phases {phases} ms")
