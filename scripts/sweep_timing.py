@@ -47,10 +47,11 @@ def main(argv=None) -> int:
             print(f"{swept} = {row[swept]:.6g}: its step fails")
             continue
         phases = " / ".join(f"{n} {1e3 * d:.1f}" for n, d in t.phase_durations_s)
-        ds = ", ".join(f"{v:.2f}" for v in t.double_support_pct) or "none,"  # point feet
+        ds = (", ".join(f"{v:.2f}" for v in t.double_support_pct) + " %"
+              if t.double_support_pct else "none")  # point feet exchange support at once
         print(f"{swept} = {row[swept]:.6g}: valid {bool(row['valid'])}, stable "
               f"{bool(row['stable'])}, rho {row['spectral_radius']:.4f}, double support "
-              f"{ds} %, stance {t.stance_pct:.2f} %, phases {phases} ms")
+              f"{ds}, stance {t.stance_pct:.2f} %, phases {phases} ms")
     return 0
 
 
