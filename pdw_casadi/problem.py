@@ -150,6 +150,39 @@ class Problem:
         _check_values(new, self.source or Path(self.name))
         return new
 
+    def in_family(self, family: str, extra: Mapping[str, float],
+                  bounds: Mapping[str, tuple[float, float]] | None = None) -> Problem:
+        """This walker as one of ``family``, whose compliance keys are this walker's and
+        more (an extension: humanlike_6link -> humanlike_6link_ankle): the same body,
+        compliance, per-leg values and section state, the extra keys at ``extra`` on both
+        legs (SI units), their bounds ``bounds`` (default: those of the family's bundled
+        problem file). Extra elements that are off (zero stiffness and damping) leave the
+        gait as it was; a caller that relies on that checks it by re-simulation."""
+        fam = get_family(family)
+        keys = tuple(fam.compliance_keys)
+        lost = [k for k in self.compliance if k not in keys]
+        if lost or tuple(self.state_names) != tuple(fam.state_keys) or \
+                set(self.anthropometry) != set(fam.anthropometry_keys):
+            raise ProblemError(f"{self.name}: the {family} walker does not extend the "
+                               f"{self.family} walker (compliance {', '.join(keys)})")
+        new = [k for k in keys if k not in self.compliance]
+        wrong = sorted(set(extra) ^ set(new))
+        if wrong:
+            raise ProblemError(f"{self.name} as a {family} walker needs values of exactly "
+                               f"its extra compliance keys {', '.join(new) or '(none)'}; "
+                               f"got {', '.join(extra) or 'none'}")
+        if bounds is None:
+            ref = load_problem(family).compliance_bounds
+            bounds = {k: ref[k] for k in new if k in ref}
+        comp = {k: float(self.compliance[k] if k in self.compliance else extra[k])
+                for k in keys}
+        out = dataclasses.replace(
+            self, family=family, compliance=_frozen(comp),
+            compliance_bounds=_frozen({**self.compliance_bounds,
+                                       **{k: tuple(v) for k, v in bounds.items()}}))
+        _check_values(out, self.source or Path(self.name))
+        return out
+
     def __getstate__(self) -> dict:
         # mapping proxies do not pickle; worker processes get plain dicts, re-frozen on arrival
         state = {f.name: (dict(v) if isinstance(v, Mapping) else v)

@@ -20,8 +20,10 @@ from __future__ import annotations
 import argparse
 import time
 
+from pdw_casadi.errors import ProblemError
 from pdw_casadi.problem import load_problem
 from pdw_casadi.prosthesis import (
+    NLP_FREE,
     START_ENTRY,
     DesignNLPOptions,
     atlas_problem,
@@ -74,8 +76,38 @@ def main(argv=None) -> int:
                          "(default: %(default)s: equal steps)")
     ap.add_argument("--t-min", type=float, default=DesignNLPOptions.t_min_s,
                     help="NLP: shortest gait segment, s (default: %(default)s)")
+    ap.add_argument("--family",
+                    help="carry the start walker into this family, whose compliance keys "
+                         "extend it (e.g. humanlike_6link_ankle: the prosthetic foot's rest "
+                         "angle, loading damper and clutch spring); its extra keys' values "
+                         "in --extension")
+    ap.add_argument("--extension", default="",
+                    help="with --family: KEY=VALUE,... for the family's extra compliance "
+                         "keys (SI units), on both legs at the start")
+    ap.add_argument("--free", default=",".join(NLP_FREE),
+                    help="NLP: comma-separated compliance keys of the prosthetic leg to "
+                         "design (default: %(default)s)")
     args = ap.parse_args(argv)
     base = load_problem(args.start) if args.start else atlas_problem(args.entry)
+    if args.family:
+        extra = {}
+        for item in (i for i in args.extension.split(",") if i):
+            key, _, val = item.partition("=")
+            try:
+                extra[key] = float(val)
+            except ValueError:
+                ap.error(f"--extension: {item!r} is not KEY=VALUE with a number")
+        try:
+            base = base.in_family(args.family, extra)
+        except (ProblemError, KeyError) as exc:
+            ap.error(f"--family {args.family}: {exc}")
+    elif args.extension:
+        ap.error("--extension needs --family")
+    free = tuple(k for k in args.free.split(",") if k)
+    unknown = [k for k in free if k not in base.compliance]
+    if unknown or not free:
+        ap.error(f"--free: {', '.join(unknown) or 'no key given'}; the {base.family} "
+                 f"walker's compliance keys: {', '.join(base.compliance)}")
     t0 = time.perf_counter()
     dist = tuple(k for k in args.mass_distribution.split(",") if k)
     bounds = dict(DesignNLPOptions().mass_distribution_bounds)
@@ -100,12 +132,13 @@ def main(argv=None) -> int:
     nlp_only = [flag for flag, given in (
         ("--start", args.start), ("--diagnose", args.diagnose),
         ("--mass-distribution", dist), ("--free-slope", args.free_slope),
-        ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct))
+        ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
+        ("--free", free != NLP_FREE))
         if given]
     if args.method == "continuation" and nlp_only:
         ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
     if args.method == "nlp":
-        res = design_prosthesis_nlp(base, lighter=args.lighter,
+        res = design_prosthesis_nlp(base, lighter=args.lighter, free=free,
                                     options=DesignNLPOptions(first_step=args.first_step,
                                                             diagnose=args.diagnose,
                                                             max_iter=args.max_iter,

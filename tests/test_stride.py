@@ -301,3 +301,48 @@ def test_stride_timing_per_leg(symmetric):
         assert abs(t.speed_m_s - rep["speed_m_s"]) < 1e-12
         assert abs(t.stance_pct - rep["legs"][side]["stance_pct"]) < 1e-9
     assert abs(timing["left"].step_length_m - timing["right"].step_length_m) > 1e-6
+
+
+def test_per_leg_ankle_walker_follows_each_leg():
+    """The ankle walker's per-leg build (its extension's elements per leg too): with equal
+    legs one step is the baked walker's; the loading damper acts on the leading leg (leg 2)
+    from heel strike to foot flat, so with only the right leg's damper changed the stride's
+    left-stance step is the baked walker's step at the right leg's value and its
+    right-stance step the one at the left leg's (the values follow the physical leg)."""
+    pb = load_problem("humanlike_6link_ankle_ds")  # all four extension elements on
+    x = pb.state_vector()
+    smap = StrideMap(pb)
+    assert smap.per_leg
+    p1, _ = smap.step_parameters(smap.default_parameters())
+    a = PoincareMap.evaluate(smap, x, p1)
+    b = PoincareMap(pb).evaluate(x)
+    # rounding carried through the steps and events, as for the paper's walker above
+    assert np.abs(a.x_next - b.x_next).max() < 1e-10
+    assert np.abs(a.dx - b.dx).max() < 1e-8
+    right = {"c_ankle_load": 1.4}
+    r = StrideMap(_asymmetric(pb, **right)).evaluate(x, jacobian=False)
+    one = PoincareMap(pb.replace(compliance=right)).evaluate(x, jacobian=False)
+    assert np.abs(r.steps[0].x_next - one.x_next).max() < 1e-10
+    two = PoincareMap(pb).evaluate(one.x_next, jacobian=False)
+    assert np.abs(r.steps[1].x_next - two.x_next).max() < 1e-10
+    same = PoincareMap(pb).evaluate(x, jacobian=False)
+    assert np.abs(r.steps[0].x_next - same.x_next).max() > 1e-4  # the value matters
+
+
+def test_in_family_carries_a_gait_into_the_extended_walker():
+    """The paper's walker as an ankle walker with the extension off (no loading damper,
+    rest angle 0, clutch spring 0) has the same stride fixed point and spectral radius."""
+    pb = load_problem("humanlike_6link")
+    off = {"c_ankle_load": 0.0, "ankle_rest": 0.0, "k_clutch": 0.0, "phi_clutch": 1.5708}
+    ext = _asymmetric(pb, k_ankle=5.15).in_family("humanlike_6link_ankle", off)
+    assert ext.family == "humanlike_6link_ankle" and ext.leg_values("right")[0]["k_ankle"] == 5.15
+    assert ext.compliance_bounds["ankle_rest"] == (-0.6, 0.6)  # the family file's bounds
+    fa = find_stride_fixed_point(_asymmetric(pb, k_ankle=5.15), tol=1e-11)
+    fb = find_stride_fixed_point(ext, x0=fa.state, tol=1e-11)
+    assert fa.converged and fb.converged
+    assert np.abs(fa.state - fb.state).max() < 1e-9
+    assert abs(fa.spectral_radius - fb.spectral_radius) < 1e-7
+    with pytest.raises(ProblemError, match="exactly its extra compliance keys"):
+        pb.in_family("humanlike_6link_ankle", {"ankle_rest": 0.0})
+    with pytest.raises(ProblemError, match="does not extend"):
+        load_problem("humanlike_6link_ankle").in_family("humanlike_6link", {})

@@ -131,15 +131,17 @@ def build(problem, ext=None) -> WalkerModel:
                      (*comp_keys, "slope"), ext)
 
 
-def per_leg_parameter_names() -> tuple[str, ...]:
+def per_leg_parameter_names(compliance_keys: tuple[str, ...] = COMPLIANCE_KEYS
+                             ) -> tuple[str, ...]:
     """Parameter names of :func:`build_per_leg`: leg 1's (stance role) compliance and
-    anthropometry, leg 2's (swing role), then ``m_h`` and ``slope``."""
-    return (*(f"{k}@1" for k in COMPLIANCE_KEYS), *(f"{k}@2" for k in COMPLIANCE_KEYS),
+    anthropometry, leg 2's (swing role), then ``m_h`` and ``slope`` (``compliance_keys``:
+    the family's, an extension's included)."""
+    return (*(f"{k}@1" for k in compliance_keys), *(f"{k}@2" for k in compliance_keys),
             *(f"{k}@1" for k in LEG_ANTHROPOMETRY_KEYS),
             *(f"{k}@2" for k in LEG_ANTHROPOMETRY_KEYS), "m_h", "slope")
 
 
-def build_per_leg(name: str, g: float) -> WalkerModel:
+def build_per_leg(name: str, g: float, ext=None) -> WalkerModel:
     """The walker with every body and compliance value a runtime parameter, per leg role.
 
     p = [compliance of leg 1 (the stance leg of the step), compliance of leg 2 (swing),
@@ -147,23 +149,25 @@ def build_per_leg(name: str, g: float) -> WalkerModel:
     rad, m, kg, kg m^2, N m/rad, N m s/rad). Each joint element and link uses the values of
     the leg it belongs to, so a caller that swaps the two leg blocks after every step makes
     the parameters follow the physical leg through the leg swap. One compiled walker serves
-    every body: changing the anthropometry needs no recompilation.
+    every body: changing the anthropometry needs no recompilation. ``ext``: an extension
+    as in :func:`build` (its compliance keys per leg too).
     """
-    names = per_leg_parameter_names()
+    comp_keys = COMPLIANCE_KEYS + (ext.compliance_keys if ext else ())
+    names = per_leg_parameter_names(comp_keys)
     p = ca.SX.sym("p", len(names))
     sym = {n: p[i] for i, n in enumerate(names)}
-    c1 = {k: sym[f"{k}@1"] for k in COMPLIANCE_KEYS}
-    c2 = {k: sym[f"{k}@2"] for k in COMPLIANCE_KEYS}
+    c1 = {k: sym[f"{k}@1"] for k in comp_keys}
+    c2 = {k: sym[f"{k}@2"] for k in comp_keys}
     a1 = {k: sym[f"{k}@1"] for k in LEG_ANTHROPOMETRY_KEYS}
     a2 = {k: sym[f"{k}@2"] for k in LEG_ANTHROPOMETRY_KEYS}
-    return _assemble(name, g, a1, a2, sym["m_h"], c1, c2, p, sym["slope"], names)
+    return _assemble(name, g, a1, a2, sym["m_h"], c1, c2, p, sym["slope"], names, ext)
 
 
 def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
               ext=None) -> WalkerModel:
     """The model from leg 1's (stance role) and leg 2's (swing role) anthropometry ``a1``,
     ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``); ``ext``: see
-    :func:`build` (its elements read ``c1``: the same legs)."""
+    :func:`build` (its elements read the compliance of the leg they act on)."""
     q = ca.SX.sym("q", 8)
     qd = ca.SX.sym("qd", 8)
     q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
@@ -217,7 +221,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
             md["eng2"], c2["k_knee"], c2["theta_eq"], knee_damping(2))),
     ]
     if ext:
-        elements += ext.elements(c1, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
+        elements += ext.elements(c1, c2, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 

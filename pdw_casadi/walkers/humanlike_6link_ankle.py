@@ -47,6 +47,8 @@ CURVE_JOINTS = base.CURVE_JOINTS
 INSTANT_LABELS = base.INSTANT_LABELS
 COMPARISON_PROBLEM = base.COMPARISON_PROBLEM
 check_anthropometry = base.check_anthropometry
+#: keys a problem may set per physical leg: every compliance value (the extension's too)
+LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": base.LEG_ANTHROPOMETRY_KEYS}
 
 
 @dataclass(frozen=True)
@@ -66,14 +68,16 @@ class AnkleExtension:
     #: engaged in the previous stance), the leading one armed, no loading damper
     initial_mode = {"load2": 0.0, "clutch1": 0.0, "clutch2": 1.0, "armc1": 1.0}
 
-    def elements(self, c, md, ankles) -> list[JointTorque]:
-        """The loading damper on ankle 2 and the clutch springs on both ankles."""
+    def elements(self, c1, c2, md, ankles) -> list[JointTorque]:
+        """The loading damper on ankle 2 and the clutch springs on both ankles, each with
+        the compliance of its leg (``c1``: leg 1, the stance role; ``c2``: leg 2)."""
         (qf1, q1), (qf2, q4) = ankles["ankle1"], ankles["ankle2"]
         return [
             JointTorque("clutch1", qf1, q1, engageable_spring_damper(
-                md["clutch1"], c["k_clutch"], c["phi_clutch"], 0.0)),
+                md["clutch1"], c1["k_clutch"], c1["phi_clutch"], 0.0)),
             JointTorque("clutch2", qf2, q4, engageable_spring_damper(
-                md["clutch2"], c["k_clutch"], c["phi_clutch"], md["load2"] * c["c_ankle_load"])),
+                md["clutch2"], c2["k_clutch"], c2["phi_clutch"],
+                md["load2"] * c2["c_ankle_load"])),
         ]
 
     def events(self, c, angles) -> list[Event]:
@@ -115,7 +119,8 @@ EXTENSION = AnkleExtension()
     nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
     phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
     leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
-    comparison_problem=COMPARISON_PROBLEM, phase_contacts=PHASE_CONTACTS)
+    comparison_problem=COMPARISON_PROBLEM, phase_contacts=PHASE_CONTACTS,
+    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: base.build_per_leg(name, g, EXTENSION))
 def build(problem):
     """The symbolic model (see :func:`pdw_casadi.walkers.humanlike_6link.build`)."""
     return base.build(problem, EXTENSION)

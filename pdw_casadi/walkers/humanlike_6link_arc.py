@@ -52,7 +52,9 @@ EXTENSION = replace(ankle.EXTENSION, compliance_keys=ankle.EXTRA_COMPLIANCE + EX
     check_anthropometry=ankle.check_anthropometry, phase_descriptions=PHASE_DESCRIPTIONS,
     limit_cycle_legs=ankle.LIMIT_CYCLE_LEGS, leg_segments=ankle.LEG_SEGMENTS,
     curve_joints=ankle.CURVE_JOINTS, instant_labels=ankle.INSTANT_LABELS,
-    comparison_problem=ankle.COMPARISON_PROBLEM, phase_contacts=ankle.PHASE_CONTACTS)
+    comparison_problem=ankle.COMPARISON_PROBLEM, phase_contacts=ankle.PHASE_CONTACTS,
+    leg_keys={**ankle.LEG_KEYS, "compliance": COMPLIANCE_KEYS},
+    build_per_leg=lambda name, g: base.build_per_leg(name, g, EXTENSION))
 def build(problem):
     """The symbolic model (see :func:`pdw_casadi.walkers.humanlike_6link.build`)."""
     return base.build(problem, EXTENSION)
