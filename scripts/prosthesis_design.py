@@ -50,8 +50,10 @@ def main(argv=None) -> int:
                          "phase's duration)")
     ap.add_argument("--out", help="write the designed walker to this TOML file")
     ap.add_argument("--start", metavar="FILE.toml",
-                    help="NLP: continue the design of a walker written by --out (its "
-                         "lighter leg, compliance and gait) instead of an atlas entry")
+                    help="NLP: start from this problem file instead of an atlas entry: a "
+                         "walker written by --out (continues its design: its lighter leg, "
+                         "compliance and gait) or a symmetric walker (its gait near its "
+                         "initial state)")
     ap.add_argument("--diagnose", action="store_true",
                     help="NLP: after every solve, log what binds (rows and bounds by "
                          "|multiplier|) and the IPOPT inf_pr/inf_du trend")
