@@ -334,10 +334,11 @@ def test_in_family_carries_a_gait_into_the_extended_walker():
     rest angle 0, clutch spring 0) has the same stride fixed point and spectral radius."""
     pb = load_problem("humanlike_6link")
     off = {"c_ankle_load": 0.0, "ankle_rest": 0.0, "k_clutch": 0.0, "phi_clutch": 1.5708}
-    ext = _asymmetric(pb, k_ankle=5.15).in_family("humanlike_6link_ankle", off)
+    asym = _asymmetric(pb, k_ankle=5.15)
+    ext = asym.in_family("humanlike_6link_ankle", off)
     assert ext.family == "humanlike_6link_ankle" and ext.leg_values("right")[0]["k_ankle"] == 5.15
     assert ext.compliance_bounds["ankle_rest"] == (-0.6, 0.6)  # the family file's bounds
-    fa = find_stride_fixed_point(_asymmetric(pb, k_ankle=5.15), tol=1e-11)
+    fa = find_stride_fixed_point(asym, tol=1e-11)
     fb = find_stride_fixed_point(ext, x0=fa.state, tol=1e-11)
     assert fa.converged and fb.converged
     assert np.abs(fa.state - fb.state).max() < 1e-9
