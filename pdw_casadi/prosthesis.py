@@ -115,6 +115,8 @@ class ProsthesisResult:
     solves: list = field(default_factory=list)
     #: the prosthetic leg's designed mass distribution (DesignNLPOptions.mass_distribution)
     mass_distribution: dict = field(default_factory=dict)
+    #: the sound leg's adapted compliance (DesignNLPOptions.free_sound)
+    sound_compliance: dict = field(default_factory=dict)
 
     @property
     def step_radius(self) -> float:
@@ -257,6 +259,10 @@ class DesignNLPOptions:
     #: mass-distribution design): 6 % solves (42 iterations, slope 0.1484 -> 0.1458 rad;
     #: without it 6 % stops at 100), then 8 % (36); 8.5, 9, 10 and 12 % stop at 100
     free_slope: bool = False
+    #: the sound leg's compliance keys that adapt too (the whole gait adapts to the
+    #: prosthesis, as an amputee's does), counted in the least-change objective as relative
+    #: changes from their values at the start; () : the sound leg keeps its compliance
+    free_sound: tuple = ()
     verbose: bool = False
     #: log after every solve what binds there (rows and bounds by |multiplier|) and the
     #: IPOPT inf_pr / inf_du trend
@@ -413,10 +419,11 @@ def sound_problem(problem: Problem, side: str = "right") -> tuple[Problem, float
         if abs(a[k] - b[k] * (1.0 - lighter)) > 1e-9 * abs(b[k]):
             raise ProblemError(f"{problem.name}: {side}.{k} is not the {other} leg's x "
                                f"{1 - lighter:.6f}: not a prosthetic_problem walker")
-    sound = problem.replace(legs={})
-    if sound.leg_values("left") != problem.leg_values(other):
+    if other != "left":
         raise ProblemError(f"{problem.name}: the sound leg must be the left one")
-    return sound, lighter
+    # the sound leg's values on both legs (its compliance may have adapted in the design)
+    comp, anthro = problem.leg_values(other)
+    return problem.replace(legs={}, compliance=comp, anthropometry=anthro), lighter
 
 
 def _log_diagnosis(solver: StrideDesignSolver, out: dict, log) -> None:
@@ -458,8 +465,12 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     dist = [f"{side}.{k}" for k in opts.mass_distribution]
     keys = [f"{side}.{k}" for k in free]
     theta_sound = physical_parameter_vector(problem)
+    # the least-change references: the prosthetic leg's values from the sound leg's, the
+    # sound leg's (free_sound) from its own at the start
     sound = {f"{side}.{k}": float(theta_sound[names.index(f"{other}.{k}")])
              for k in (*free, *opts.mass_distribution)}
+    adapt = [f"{other}.{k}" for k in opts.free_sound]
+    sound.update({k: float(theta_sound[names.index(k)]) for k in adapt})
     dist_bounds = {f"{side}.{k}": tuple(f * sound[f"{side}.{k}"]
                                         for f in opts.mass_distribution_bounds[k])
                    for k in opts.mass_distribution}
@@ -485,11 +496,12 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         theta_t = physical_parameter_vector(target)
         # built at the last answer (its gait simulates; at the lighter leg with the old
         # compliance it may not), the body values pinned at the new mass
-        nlp = ShootingNLP.stride(target, x, theta, free=(*keys, *dist, *body, *shared),
+        nlp = ShootingNLP.stride(target, x, theta,
+                                 free=(*keys, *adapt, *dist, *body, *shared),
                                  sample_stride=opts.sample_stride, headroom_s=opts.headroom_s)
         pinned = {k: float(theta_t[names.index(k)]) for k in body}
-        solver = StrideDesignSolver(nlp, (*keys, *dist), sound, opts, pinned, log=log,
-                                    bounds=dist_bounds)
+        solver = StrideDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
+                                    log=log, bounds=dist_bounds)
         out = solver.solve(nlp.w0)
         if opts.diagnose:
             _log_diagnosis(solver, out, log)
@@ -532,9 +544,10 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
     comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
     mass = {k: float(theta[names.index(f"{side}.{k}")]) for k in opts.mass_distribution}
+    sound_comp = {k: float(theta[names.index(f"{other}.{k}")]) for k in opts.free_sound}
     good = (ok and fp.converged and fp.valid
             and fp.spectral_radius <= opts.max_stride_radius
             and abs(report["step_length_asymmetry_pct"]) < 1.0
             and abs(report["step_time_asymmetry_pct"]) < 1.0)
     return ProsthesisResult(designed, fp, report, comp, path, bool(good),
-                            time.perf_counter() - t0, solves, mass)
+                            time.perf_counter() - t0, solves, mass, sound_comp)

@@ -89,6 +89,9 @@ def main(argv=None) -> int:
     ap.add_argument("--free", default=",".join(NLP_FREE),
                     help="NLP: comma-separated compliance keys of the prosthetic leg to "
                          "design (default: %(default)s)")
+    ap.add_argument("--free-sound", default="",
+                    help="NLP: comma-separated compliance keys of the sound (left) leg that "
+                         "adapt too (default: none; the sound leg keeps its compliance)")
     args = ap.parse_args(argv)
     base = load_problem(args.start) if args.start else atlas_problem(args.entry)
     if args.family:
@@ -110,6 +113,11 @@ def main(argv=None) -> int:
     if unknown or not free:
         ap.error(f"--free: {', '.join(unknown) or 'no key given'}; the {base.family} "
                  f"walker's compliance keys: {', '.join(base.compliance)}")
+    free_sound = tuple(k for k in args.free_sound.split(",") if k)
+    unknown = [k for k in free_sound if k not in base.compliance]
+    if unknown:
+        ap.error(f"--free-sound: {', '.join(unknown)}; the {base.family} walker's "
+                 f"compliance keys: {', '.join(base.compliance)}")
     t0 = time.perf_counter()
     dist = tuple(k for k in args.mass_distribution.split(",") if k)
     bounds = dict(DesignNLPOptions().mass_distribution_bounds)
@@ -135,7 +143,7 @@ def main(argv=None) -> int:
         ("--start", args.start), ("--diagnose", args.diagnose),
         ("--mass-distribution", dist), ("--free-slope", args.free_slope),
         ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
-        ("--free", free != NLP_FREE))
+        ("--free", free != NLP_FREE), ("--free-sound", free_sound))
         if given]
     if args.method == "continuation" and nlp_only:
         ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
@@ -147,6 +155,7 @@ def main(argv=None) -> int:
                                                             mass_distribution=dist,
                                                             mass_distribution_bounds=bounds,
                                                             free_slope=args.free_slope,
+                                                            free_sound=free_sound,
                                                             t_min_s=args.t_min,
                                                             symmetry_tol_pct=args.symmetry_tol,
                                                             max_step=args.max_step,
@@ -179,6 +188,9 @@ def main(argv=None) -> int:
           f"valid: {fp.valid}")
     print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
                                                  for k, v in res.compliance.items()))
+    if res.sound_compliance:
+        print("sound-leg compliance (adapted):", ", ".join(
+            f"{k} = {v:.4f}" for k, v in res.sound_compliance.items()))
     if res.mass_distribution:
         print("prosthetic-leg mass distribution:", ", ".join(
             f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))

@@ -29,6 +29,8 @@ def script():
     (["--method", "continuation", "--free", "k_ankle"], "options of --method nlp only"),
     (["--mass-distribution", "l_sc", "--mass-bounds", "l_sc=2:1"], "0 < LO < HI"),
     (["--symmetry-tol", "1.5"], r"\[0, 1\)"),
+    (["--free-sound", "k_ankle,kneee"], "--free-sound: kneee"),
+    (["--method", "continuation", "--free-sound", "k_knee"], "options of --method nlp only"),
 ])
 def test_bad_options_are_usage_errors(script, capsys, argv, msg):
     with pytest.raises(SystemExit) as exc:

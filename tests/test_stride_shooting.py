@@ -154,6 +154,28 @@ def test_design_nlp_makes_a_slightly_lighter_leg_symmetric_and_stable(base):
     assert rho <= bound + 1e-6 and bound <= rho * 7 ** (1 / 32) + 1e-6
 
 
+@pytest.mark.slow  # one NLP solve with 16 compliance values free
+def test_design_nlp_with_the_sound_leg_adapting(base):
+    """0.3 % lighter right shank and foot, one NLP solve with the sound (left) leg's eight
+    compliance values free as well: the re-simulated gait is stable, valid and symmetric,
+    and the walker written carries the left leg's adapted values, which the result
+    reports (they moved: the sound leg took part in the design)."""
+    from pdw_casadi.prosthesis import NLP_FREE, DesignNLPOptions, design_prosthesis_nlp
+
+    lighter = 0.003
+    x = find_stride_fixed_point(base).state
+    res = design_prosthesis_nlp(base, x0=x, lighter=lighter, log=None,
+                                options=DesignNLPOptions(first_step=lighter,
+                                                         free_sound=NLP_FREE))
+    _design_checks(base, res, lighter)
+    left, _ = res.problem.leg_values("left")
+    assert set(res.sound_compliance) == set(NLP_FREE)
+    assert all(left[k] == v for k, v in res.sound_compliance.items())
+    moved = max(abs(left[k] - base.compliance[k]) / max(abs(base.compliance[k]), 1e-2)
+                for k in NLP_FREE)
+    assert moved > 1e-6
+
+
 def test_sound_problem_undoes_prosthetic_problem(base):
     """A prosthetic walker's sound problem is the symmetric walker it was made from (every
     body and compliance value of both legs) with the mass reduction it carries; a walker
@@ -170,6 +192,14 @@ def test_sound_problem_undoes_prosthetic_problem(base):
     legs = {"right": {"anthropometry": {**pb.legs["right"]["anthropometry"], "m_f": 0.6}}}
     with pytest.raises(ProblemError, match="not a prosthetic_problem walker"):
         sound_problem(pb.replace(legs=legs))
+    # a design whose sound (left) leg adapted its compliance (DesignNLPOptions.free_sound):
+    # the symmetric walker carries the left leg's values on both legs
+    adapted = {**pb.legs, "left": {"compliance": {"k_knee": 1.1 * base.compliance["k_knee"]}}}
+    sound, lighter = sound_problem(pb.replace(legs=adapted))
+    assert not sound.asymmetric and abs(lighter - 0.04) < 1e-12
+    assert sound.compliance["k_knee"] == 1.1 * base.compliance["k_knee"]
+    assert {k: v for k, v in sound.compliance.items() if k != "k_knee"} == {
+        k: v for k, v in base.compliance.items() if k != "k_knee"}
 
 
 @pytest.mark.slow

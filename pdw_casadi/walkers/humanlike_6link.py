@@ -92,12 +92,14 @@ def _arc_outputs(arc: RollingArc, tag: str) -> dict:
             f"arc_{tag}_m": arc.contact_length, f"arcmargin_{tag}": arc.span_margin}
 
 
-def _arc_events(arc: RollingArc, tag: str, armed: bool) -> list[Event]:
+def _arc_events(arc: RollingArc, tag: str, arm_first: bool) -> list[Event]:
     """A toe arc's contact angle falling back to 0: the foot is flat again, its heel
-    reaching the ground (a broken gait pattern: the flat sole would sink)."""
+    reaching the ground (a broken gait pattern: the flat sole would sink). ``arm_first``:
+    the event counts only once the contact angle has exceeded ARC_FLAT_ARM in the phase
+    (a phase that starts with the foot flat on its toe arc's tangent point)."""
     return [Event(f"{tag}_arc_flat", arc.contact_angle, -1, FAILURE,
                   "rolling foot comes back flat onto the ground (contact leaves its toe arc)",
-                  arm_above=ARC_FLAT_ARM if armed else 0.0)]
+                  arm_above=ARC_FLAT_ARM if arm_first else 0.0)]
 
 
 @register(
@@ -308,7 +310,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
         Event("foot1_lift", N1, -1, FAILURE, "stance foot normal force reaches zero"),
         Event("cop1_at_toe", m1a, -1, FAILURE, "centre of pressure reaches the stance toe"),
         Event("cop1_at_heel", m1b, -1, FAILURE, "centre of pressure reaches the stance heel"),
-        *(_arc_events(toe2_arc, "toe2", armed=False) if arcs else ()),
+        *(_arc_events(toe2_arc, "toe2", arm_first=False) if arcs else ()),
         *common_events,
     ]
     # Phase II: single stance on the flat foot, swing leg free
@@ -376,8 +378,8 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names,
               "leading foot rotates flat onto the ground"),
         Event("toe1_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
         Event("heel2_lift", N_heel2, -1, FAILURE, "leading heel normal force reaches zero"),
-        # the trailing foot leaves flat at heel strike (contact angle 0): armed
-        *(_arc_events(toe1_arc, "toe1", armed=True) if arcs else ()),
+        # the trailing foot leaves flat at heel strike (contact angle 0): armed first
+        *(_arc_events(toe1_arc, "toe1", arm_first=True) if arcs else ()),
         *common_events,
     ]
 
