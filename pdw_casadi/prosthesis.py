@@ -263,6 +263,11 @@ class DesignNLPOptions:
     #: prosthesis, as an amputee's does), counted in the least-change objective as relative
     #: changes from their values at the start; () : the sound leg keeps its compliance
     free_sound: tuple = ()
+    #: accept a homotopy step whose IPOPT solve stopped without success (iteration limit)
+    #: when its answer re-simulates as the verdict asks: a stride fixed point that is stable
+    #: (<= max_stride_radius), valid and with both asymmetries below 1 %. The re-simulation
+    #: is the verdict either way; False: only IPOPT successes are accepted
+    accept_verified: bool = False
     verbose: bool = False
     #: log after every solve what binds there (rows and bounds by |multiplier|) and the
     #: IPOPT inf_pr / inf_du trend
@@ -288,6 +293,8 @@ class DesignSolve:
     valid: bool | None
     #: what binds at the answer (:meth:`StrideDesignSolver.binding`, the 20 largest)
     binding: list = field(default_factory=list)
+    #: the homotopy took this answer as its next point
+    accepted: bool = False
 
 
 class StrideDesignSolver:
@@ -516,12 +523,18 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             report["step_length_asymmetry_pct"] if report else math.nan,
             report["step_time_asymmetry_pct"] if report else math.nan,
             fp.valid if fp.converged else None, solver.binding(out, top=20)))
+        verified = (fp.converged and fp.valid
+                    and fp.spectral_radius <= opts.max_stride_radius
+                    and abs(solves[-1].step_length_asymmetry_pct) < 1.0
+                    and abs(solves[-1].step_time_asymmetry_pct) < 1.0)
+        good = verified and (out["success"] or opts.accept_verified)
+        solves[-1].accepted = good
         log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
             f"iterations ({out['wall_time_s']:.1f} s); NLP rho32 {out['radius']:.4f}, "
-            f"re-simulated stride radius {solves[-1].stride_radius:.4f}, valid "
-            f"{solves[-1].valid}")
-        good = (out["success"] and fp.converged and fp.valid
-                and fp.spectral_radius <= opts.max_stride_radius)
+            f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "
+            f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
+            f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
+            f"{'accepted' if good else 'rejected'}")
         if not good:
             step /= 2
             if step < opts.min_step:

@@ -92,6 +92,9 @@ def main(argv=None) -> int:
     ap.add_argument("--free-sound", default="",
                     help="NLP: comma-separated compliance keys of the sound (left) leg that "
                          "adapt too (default: none; the sound leg keeps its compliance)")
+    ap.add_argument("--accept-verified", action="store_true",
+                    help="NLP: accept a solve that stopped at the iteration limit when its "
+                         "answer re-simulates as stable, valid and symmetric (below 1 %%)")
     args = ap.parse_args(argv)
     base = load_problem(args.start) if args.start else atlas_problem(args.entry)
     if args.family:
@@ -143,7 +146,8 @@ def main(argv=None) -> int:
         ("--start", args.start), ("--diagnose", args.diagnose),
         ("--mass-distribution", dist), ("--free-slope", args.free_slope),
         ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
-        ("--free", free != NLP_FREE), ("--free-sound", free_sound))
+        ("--free", free != NLP_FREE), ("--free-sound", free_sound),
+        ("--accept-verified", args.accept_verified))
         if given]
     if args.method == "continuation" and nlp_only:
         ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
@@ -156,6 +160,7 @@ def main(argv=None) -> int:
                                                             mass_distribution_bounds=bounds,
                                                             free_slope=args.free_slope,
                                                             free_sound=free_sound,
+                                                            accept_verified=args.accept_verified,
                                                             t_min_s=args.t_min,
                                                             symmetry_tol_pct=args.symmetry_tol,
                                                             max_step=args.max_step,
@@ -197,7 +202,10 @@ def main(argv=None) -> int:
     print(f"slope {res.problem.slope:.5f} rad")
     for sv in res.solves:
         print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
-              f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}")
+              f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}, "
+              f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
+              f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "
+              f"{'accepted' if sv.accepted else 'rejected'}")
     print(f"wall time {took:.1f} s")
     if args.out:
         with open(args.out, "w") as f:

@@ -176,6 +176,32 @@ def test_design_nlp_with_the_sound_leg_adapting(base):
     assert moved > 1e-6
 
 
+@pytest.mark.slow  # two NLP solves of at most 20 iterations
+def test_design_nlp_accepts_only_verified_answers(base):
+    """With ``accept_verified`` a homotopy step is taken exactly when its answer
+    re-simulates as stable (stride radius <= 0.81), valid and symmetric (below 1 %),
+    whether IPOPT converged or stopped at its iteration limit (20 iterations: fewer than the
+    0.3 % step needs to converge); without it, a stopped solve is never taken."""
+    from pdw_casadi.prosthesis import DesignNLPOptions, design_prosthesis_nlp
+
+    lighter = 0.003
+    x = find_stride_fixed_point(base).state
+    for accept in (True, False):
+        res = design_prosthesis_nlp(base, x0=x, lighter=lighter, log=None,
+                                    options=DesignNLPOptions(
+                                        first_step=lighter, max_iter=20, max_solves=1,
+                                        accept_verified=accept))
+        (sv,) = res.solves
+        assert sv.status == "Maximum_Iterations_Exceeded"
+        verified = (bool(sv.valid) and sv.stride_radius <= 0.81
+                    and abs(sv.step_length_asymmetry_pct) < 1.0
+                    and abs(sv.step_time_asymmetry_pct) < 1.0)
+        assert sv.accepted == (verified and accept)
+        assert res.reached == sv.accepted
+        if sv.accepted:
+            _design_checks(base, res, lighter)
+
+
 def test_sound_problem_undoes_prosthetic_problem(base):
     """A prosthetic walker's sound problem is the symmetric walker it was made from (every
     body and compliance value of both legs) with the mass reduction it carries; a walker
