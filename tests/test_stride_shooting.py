@@ -243,15 +243,16 @@ def test_design_nlp_ten_percent_lighter(base):
 
 
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric():
-    """problems/humanlike_6link_prosthesis29.toml (the design with the sound leg adapting,
+    """data/designs/humanlike_6link_prosthesis29.toml (the design with the sound leg adapting,
     scripts/prosthesis_design.py --free-sound ... --accept-verified): its right shank and foot
     are 28.9 % lighter, and the stride map re-solved from its file has a fixed point with
     stride radius <= 0.81 (0.9 per step), valid, both asymmetries below 1 %."""
     from pdw_casadi.problem import load_problem
     from pdw_casadi.prosthesis import lighter_mass
+    from pdw_casadi.resources import bundled_dir
     from pdw_casadi.stride import stride_report
 
-    pb = load_problem("humanlike_6link_prosthesis29")
+    pb = load_problem(bundled_dir("data") / "designs" / "humanlike_6link_prosthesis29.toml")
     assert abs((1 - lighter_mass(pb)) - 0.289) < 1e-3
     smap = StrideMap(pb)
     fp = find_stride_fixed_point(pb, tol=1e-10, smap=smap, fallback=False)
