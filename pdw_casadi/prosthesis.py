@@ -52,8 +52,8 @@ stopped at the iteration limit accepted when their re-simulation is stable, vali
 symmetric (``accept_verified``), the compliance-only design from the same atlas gait reaches
 28.90 % lighter with equal steps (shipped as ``data/designs/humanlike_6link_prosthesis29.toml``):
 the sound knee's spring engaging and releasing earlier opens the event-order boundary above.
-Continued from there with a 0.9 % symmetry tolerance it reaches 30 %
-(``data/designs/humanlike_6link_prosthesis30.toml``: stride radius 0.790, valid, both
+With a 0.9 % symmetry tolerance as well it reaches 30 %
+(``data/designs/humanlike_6link_prosthesis30.toml``: stride radius 0.800, valid, both
 asymmetries -0.90 %), the stability row on its bound.
 """
 

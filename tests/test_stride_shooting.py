@@ -246,8 +246,8 @@ def test_design_nlp_ten_percent_lighter(base):
                                            ("humanlike_6link_prosthesis30", 0.300)])
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
     """The designs in data/designs (the sound leg adapting, scripts/prosthesis_design.py
-    --free-sound ... --accept-verified; the 30 % one continues the 28.9 % one with a 0.9 %
-    symmetry tolerance): the right shank and foot are that much lighter, and the stride map,
+    --free-sound ... --accept-verified from the atlas gait; the 30 % one with a 0.9 %
+    symmetry tolerance too): the right shank and foot are that much lighter, and the stride map,
     with Newton started 1e-5 away from the file's gait in every component (1e-3 away the
     walker falls within the stride), returns to that gait: stride radius <= 0.81 (0.9 per
     step), valid, both asymmetries below 1 %."""
