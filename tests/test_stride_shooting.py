@@ -249,8 +249,8 @@ def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
     --free-sound ... --accept-verified from the atlas gait; the 30 % one with a 0.9 %
     symmetry tolerance too): the right shank and foot are that much lighter, and the stride map,
     with Newton started 1e-5 away from the file's gait in every component (1e-3 away the
-    walker falls within the stride), returns to that gait: stride radius <= 0.81 (0.9 per
-    step), valid, both asymmetries below 1 %."""
+    stride leaves the gait pattern: a fall, or the centre of pressure at the toe), returns
+    to that gait: stride radius <= 0.81 (0.9 per step), valid, both asymmetries below 1 %."""
     from pdw_casadi.problem import load_problem
     from pdw_casadi.prosthesis import lighter_mass
     from pdw_casadi.resources import bundled_dir
