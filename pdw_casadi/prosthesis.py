@@ -51,7 +51,8 @@ Those caps hold with the sound leg's compliance fixed. With the sound leg adapti
 stopped at the iteration limit accepted when their re-simulation is stable, valid and
 symmetric (``accept_verified``), the compliance-only design from the same atlas gait reaches
 28.90 % lighter with equal steps (shipped as ``data/designs/humanlike_6link_prosthesis29.toml``):
-the sound knee's spring engaging and releasing earlier opens the event-order boundary above.
+among the sound leg's changes its knee spring engages and releases earlier, the events
+whose order capped the design above.
 With a 0.9 % symmetry tolerance as well it reaches 30 %
 (``data/designs/humanlike_6link_prosthesis30.toml``: stride radius 0.800, valid, both
 asymmetries -0.90 %), the stability row on its bound.
