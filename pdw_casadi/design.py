@@ -256,6 +256,14 @@ class _MarginHolds:
             self.held.pop(k, None)
 
 
+def next_homotopy_step(tried: float, accepted: bool, max_step: float) -> float:
+    """A homotopy's next step (in its own parameter) after a solve at ``tried`` past the last
+    accepted point: doubled (at most ``max_step``) when accepted, halved when not. Halving
+    the step tried, not a nominal one: near the end the nominal step reaches past it, and
+    halving that would repeat the same solve."""
+    return min(2 * tried, max_step) if accepted else tried / 2
+
+
 def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[int]],
                     extra: Extra | None = None,
                     options: DesignOptions | None = None) -> PathResult:
@@ -311,12 +319,10 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
                 else:
                     holds.release(broken)
                     cand = replace(again, converged=False)
+        step = next_homotopy_step(new - lam, cand.converged, 1.0 / n_min)
         if cand.converged:
             lam, last, tangent = new, cand, None
             path.append((lam, cand.state, cand.theta))
-            step = min(2 * step, 1.0 / n_min)
-        else:
-            step /= 2
     return PathResult(last, path, bool(last.converged and lam == 1.0),
                       time.perf_counter() - t0, dict(holds.held) if holds else {})
 

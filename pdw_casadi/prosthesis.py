@@ -72,6 +72,7 @@ from .design import (
     DesignOptions,
     combined,
     continue_design,
+    next_homotopy_step,
     phase_time_conditions,
     symmetry_conditions,
 )
@@ -455,14 +456,6 @@ def _log_diagnosis(solver: StrideDesignSolver, out: dict, log) -> None:
             f"{d['active']} active, violation {max(d['violation'], 0.0):.2g}")
 
 
-def next_mass_step(tried: float, nominal: float, accepted: bool, max_step: float) -> float:
-    """The mass homotopy's next step (fraction of the sound leg's mass, -): after an accepted
-    solve the nominal step doubled (at most ``max_step``); after a rejected one half the step
-    ``tried``. Near the target the nominal step exceeds what remains (``tried`` < ``nominal``),
-    and halving the nominal step would repeat the same solve."""
-    return min(2 * nominal, max_step) if accepted else tried / 2
-
-
 def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                           side: str = "right", free: Sequence[str] = NLP_FREE,
                           options: DesignNLPOptions | None = None,
@@ -554,7 +547,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
             f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
             f"{'accepted' if good else 'rejected'}")
-        step = next_mass_step(level - done, step, good, opts.max_step)
+        step = next_homotopy_step(level - done, good, opts.max_step)
         if not good:
             if step < opts.min_step:
                 break
