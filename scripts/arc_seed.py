@@ -7,12 +7,12 @@ carried to the rolling-foot walker at r_toe = r_heel = 0, where it is the same g
 (``--r-toe 0 --r-heel 0`` writes that start). At its compliance the gait leaves its validity
 margins within micrometres of radius (the phase-I stance normal force sits on its 5 N
 bound), so this script carries it to the radii by the design continuation
-(:func:`pdw_casadi.design.continue_design`): the radii move linearly from 0 to the targets,
+(:func:`pdw_casadi.gait.design.continue_design`): the radii move linearly from 0 to the targets,
 the fixed point and every other compliance value (relative change, least norm) are the
 unknowns, and a validity margin that would break is held at its requirement + 10 %
 (``DesignOptions.hold_margins``). The end point, its compliance put back inside the
 problem's bounds, is re-solved by Newton
-(:func:`pdw_casadi.fixed_point.find_fixed_point`) and written as JSON: ``fixed_point``,
+(:func:`pdw_casadi.gait.fixed_point.find_fixed_point`) and written as JSON: ``fixed_point``,
 ``compliance``, ``slope`` (``pdw-fit --state FILE --compliance FILE`` read them), the
 spectral radius, validity, gait timing and the margins held on the way.
 """
@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from pdw_casadi.design import DesignOptions, continue_design
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import load_problem
-from pdw_casadi.timing import fixed_point_timing
+from pdw_casadi.gait.design import DesignOptions, continue_design
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.timing import fixed_point_timing
+from pdw_casadi.model.problem import load_problem
 
 RADII = ("r_toe", "r_heel")
 

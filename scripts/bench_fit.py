@@ -20,10 +20,10 @@ from pathlib import Path
 
 from pdw_casadi.fit import FitOptions, fit_gait, reference_gait
 from pdw_casadi.fit.driver import FitSolver
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.gait_data import load_gait_curves
-from pdw_casadi.problem import load_problem
-from pdw_casadi.shooting import ShootingNLP
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 ROOT = Path(__file__).resolve().parents[1]
 GOAL_S = 60.0

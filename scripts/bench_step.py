@@ -2,7 +2,7 @@
 
 Both walk the humanlike 6-link walker (Table 3 compliance, slope 0.1484) one step from the
 Table 2 section state. The CasADi simulator is warmed up once (compilation / cache loading
-excluded) and timed best of 5; the baseline ``scripts/numpy_walker.py`` (solve_ivp RK45,
+excluded) and timed best of 5; the baseline ``tests/numpy_walker.py`` (solve_ivp RK45,
 rtol 1e-9) is timed best of 3. Exits 1 if the end states differ by more than 1e-6.
 """
 
@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 import numpy_walker  # noqa: E402
 
-from pdw_casadi.problem import load_problem  # noqa: E402
-from pdw_casadi.simulate import Simulator  # noqa: E402
+from pdw_casadi.gait.simulate import Simulator  # noqa: E402
+from pdw_casadi.model.problem import load_problem  # noqa: E402
 
 
 def best_of(fn, n):

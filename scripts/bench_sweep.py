@@ -21,9 +21,9 @@ import time
 import numpy as np
 import pandas as pd
 
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import load_problem
-from pdw_casadi.sweep import sweep
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.sweep import sweep
+from pdw_casadi.model.problem import load_problem
 
 GRID = (0.1476, 0.1485)  # rad
 

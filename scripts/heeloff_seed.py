@@ -8,7 +8,7 @@ stance heel down until the other heel strikes cannot be fitted into heel off dir
 script finds a fixed point with heel off in three stages, from the ankle walker's shipped
 gait (``problems/humanlike_6link_ankle.toml``) carried to the forefoot-rocker family; every
 NLP has all validity margins and the periodicity as constraints and all compliance free
-within the problem's bounds (:class:`~pdw_casadi.shooting.ShootingNLP`):
+within the problem's bounds (:class:`~pdw_casadi.nlp.shooting.ShootingNLP`):
 
 1. *push*: rounds of the NLP minimising the heel-off event at the end of phase II (the stance
    foot's centre-of-pressure distance from its toe times its normal force, N m), each round
@@ -37,11 +37,11 @@ import casadi as ca
 
 from pdw_casadi.fit import FitOptions
 from pdw_casadi.fit.driver import FitSolver
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.gait_data import load_gait_curves
-from pdw_casadi.problem import load_problem
-from pdw_casadi.shooting import ShootingNLP
-from pdw_casadi.simulate import Simulator
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 
 def start_problem():

@@ -5,7 +5,7 @@ pelvis are the means of the right and left curves (each normalised to its own he
 thigh = mean(right hip - right pelvis, left hip - left pelvis). The SD columns are the
 between-side SD of that one subject (sample SD, n - 1 = 1), so the files keep the schema.
 
-``--sides`` writes the per-side files instead (pdw_casadi.gait_data, "per-side files"): per
+``--sides`` writes the per-side files instead (pdw_casadi.model.gait_data, "per-side files"): per
 side its own hip, knee and pelvis curve and thigh = hip - pelvis of that side, each over
 that side's gait cycle; no SD columns (one curve per side and subject: the excerpts give no
 stride-to-stride spread).

@@ -5,7 +5,7 @@
 For each converged row it simulates one step from the row's section state with the row's
 parameters (``param:<name>`` columns) and prints the swept value, valid, stable, the
 spectral radius, double support per period and stance (% of the cycle) and the phase
-durations (ms) of the periodic gait (:func:`pdw_casadi.timing.fixed_point_timing`).
+durations (ms) of the periodic gait (:func:`pdw_casadi.gait.timing.fixed_point_timing`).
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.timing import fixed_point_timing
-from pdw_casadi.units import with_units
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import fixed_point_timing
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.units import with_units
 
 
 def main(argv=None) -> int:

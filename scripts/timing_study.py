@@ -32,8 +32,8 @@ STUDY = ("humanlike_6link", "humanlike_6link_ankle_load", "humanlike_6link_ankle
 
 def _binding(summary: dict, problem: str, n: int = 2) -> str:
     """The ``n`` smallest validity slacks (margin minus its required minimum)."""
-    from pdw_casadi.fixed_point import validity_slacks
-    from pdw_casadi.problem import load_problem
+    from pdw_casadi.gait.fixed_point import validity_slacks
+    from pdw_casadi.model.problem import load_problem
 
     margins = summary.get("margins") or {}
     if not margins:

@@ -7,7 +7,6 @@ every later session reuses the cached libraries.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import casadi as ca
@@ -15,9 +14,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import simulate
-from pdw_casadi.system import hybrid_system
+from pdw_casadi.gait.simulate import simulate
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import hybrid_system
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPTS = ROOT / "scripts"
@@ -51,7 +50,7 @@ def table2_step(problem):
 def compass_steps():
     """Three recorded steps of the compass gait from its problem file: (problem, hybrid
     system, parameter vector, SimulationResult)."""
-    from pdw_casadi.simulate import Simulator
+    from pdw_casadi.gait.simulate import Simulator
 
     pb = load_problem("compass_gait")
     sim = Simulator(pb)
@@ -63,10 +62,8 @@ def compass_steps():
 
 @pytest.fixture(scope="session")
 def numpy_walker():
-    """The independent numpy/scipy implementation ``scripts/numpy_walker.py`` (a module)."""
-    if str(SCRIPTS) not in sys.path:
-        sys.path.insert(0, str(SCRIPTS))
-    import numpy_walker
+    """The independent numpy/scipy implementation ``tests/numpy_walker.py`` (a module)."""
+    import numpy_walker  # tests/ is on sys.path under pytest
 
     return numpy_walker
 

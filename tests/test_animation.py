@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pdw_casadi.animation import walk_frames
 from pdw_casadi.cli import simulate_main
+from pdw_casadi.report.animation import walk_frames
 
 FPS = 25
 

@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.system import hybrid_system
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import hybrid_system
 
 ON = {"c_ankle_load": 0.5, "k_clutch": 5.0, "ankle_rest": 0.05}
 
@@ -133,7 +133,7 @@ def test_mode_rules_of_the_transitions(study):
 def test_shipped_problem_is_a_stable_passive_gait(shipped):
     """The shipped extension's own state is a stable fixed point whose step balances its
     energy and passes every impact check."""
-    from pdw_casadi.fixed_point import find_fixed_point
+    from pdw_casadi.gait.fixed_point import find_fixed_point
 
     fp = find_fixed_point(shipped)
     assert fp.converged and fp.valid and fp.spectral_radius <= 0.9

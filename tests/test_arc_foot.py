@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from conftest import full_states, phase_runs
 
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.mechanics.rolling import RollingArc
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.mechanics.rolling import RollingArc
+from pdw_casadi.model.problem import load_problem
 
 #: the rolling contacts of each phase and impact: (tag, sole point, foot angle index, toe?)
 ROLLING = {"I": [("toe2", "toe2", 5, True)],

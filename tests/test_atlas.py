@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from pdw_casadi.curves import fit_scores
 from pdw_casadi.fit import FitOptions
 from pdw_casadi.fit.starts import Start, load_atlas, rank_starts, select_starts
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.gait_data import load_gait_curves
+from pdw_casadi.gait.curves import fit_scores
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.model.gait_data import load_gait_curves
 
 
 def test_every_atlas_entry_is_a_stable_valid_fixed_point(problem):
@@ -58,10 +58,10 @@ def test_rank_starts_is_by_score_alone_at_zero_tolerance_and_by_stability_alone_
 def test_multistart_gives_identical_results_in_process_and_in_a_pool(problem, tmp_path):
     """Two starts (the problem's own and an atlas entry at c_ankle -1 %, c_knee_flex -1 %),
     fitted in this process and on a 2-process pool: the same answers, bit for bit."""
-    from pdw_casadi.curves import gait_cycle
     from pdw_casadi.fit import fit_gait
     from pdw_casadi.fit.starts import AtlasEntry, save_atlas
-    from pdw_casadi.simulate import Simulator
+    from pdw_casadi.gait.curves import gait_cycle
+    from pdw_casadi.gait.simulate import Simulator
 
     names = list(problem.parameter_names)
     sim = Simulator(problem)

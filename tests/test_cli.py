@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from pdw_casadi.cli import COMMANDS, main, simulate_main
-from pdw_casadi.jsonio import write_json
+from pdw_casadi.engine.jsonio import write_json
 
 OUTPUTS = ("trajectory.csv", "events.csv", "summary.json", "angles.png", "stick.png")
 SUMMARY_KEYS = {"phases", "step_time_s", "step_length_m", "speed_m_s", "poincare_states",

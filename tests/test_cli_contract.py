@@ -1,4 +1,4 @@
-"""The CLI contract (pdw_casadi.cli_contract) and one test per defect of the walker/input
+"""The CLI contract (pdw_casadi.cli.contract) and one test per defect of the walker/input
 review: every bad input is one ``error:`` line and exit code 2 with nothing written or
 deleted; "no gait" is exit code 1 with a reason; numerical blow-ups are not falls."""
 
@@ -14,10 +14,17 @@ import pandas as pd
 import pytest
 
 import pdw_casadi
-from pdw_casadi import cli
-from pdw_casadi.cli import fit_main, fixed_point_main, load_fit_start, simulate_main, sweep_main
-from pdw_casadi.problem import ProblemError, load_overrides, load_problem, problem_from_dict
-from pdw_casadi.simulate import Simulator
+import pdw_casadi.cli as cli
+import pdw_casadi.cli.fit as cli_fit
+from pdw_casadi.cli import (
+    fit_main,
+    fixed_point_main,
+    load_fit_start,
+    simulate_main,
+    sweep_main,
+)
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import ProblemError, load_overrides, load_problem, problem_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 HL = (ROOT / "problems" / "humanlike_6link.toml").read_text()
@@ -70,8 +77,8 @@ def test_d1_fixed_point_of_compass_gait_plots_its_limit_cycle(tmp_path, capsys):
 
 
 def test_d2_one_phase_walker_steps_are_not_merged(tmp_path):
-    from pdw_casadi.faces import walker_faces
-    from pdw_casadi.plots import _instants, phase_spans, snapshot_rows
+    from pdw_casadi.model.faces import walker_faces
+    from pdw_casadi.report.plots import _instants, phase_spans, snapshot_rows
 
     pb = load_problem("compass_gait")
     sim = Simulator(pb)
@@ -90,8 +97,8 @@ def test_d2_one_phase_walker_steps_are_not_merged(tmp_path):
 
 
 def test_d2_six_link_instants_keep_the_paper_labels(table2_step, problem):
-    from pdw_casadi.faces import walker_faces
-    from pdw_casadi.plots import _instants
+    from pdw_casadi.model.faces import walker_faces
+    from pdw_casadi.report.plots import _instants
 
     marks = _instants(table2_step.trajectory, walker_faces(problem))
     assert list(marks) == ["a+", "b", "c-", "c+", "a-"]
@@ -121,7 +128,7 @@ def test_d3_sweep_gait_scores_for_the_kneed_walker(tmp_path, capsys):
 
 
 def test_d3_gait_cycle_of_point_feet_uses_the_model(capsys):
-    from pdw_casadi.curves import gait_cycle
+    from pdw_casadi.gait.curves import gait_cycle
 
     pb = load_problem("kneed_walker")
     sim = Simulator(pb)
@@ -147,7 +154,7 @@ def test_d3_fit_needs_a_walker_with_knee_hip_and_something_to_fit(tmp_path, caps
 
 
 def test_d4_fit_report_runs_the_comparison_walker_only_for_its_family(monkeypatch, tmp_path):
-    import pdw_casadi.fit_report as fr
+    import pdw_casadi.report.fit_report as fr
 
     calls = []
 
@@ -163,7 +170,7 @@ def test_d4_fit_report_runs_the_comparison_walker_only_for_its_family(monkeypatc
 
     monkeypatch.setattr(fr, "reference_gait", fake_reference)
     monkeypatch.setattr(fr, "fit_gait", fake_fit)
-    from pdw_casadi.gait_data import load_gait_curves
+    from pdw_casadi.model.gait_data import load_gait_curves
 
     human = load_gait_curves("female_fast.csv")
     for name, expected in (("kneed_walker", ["kneed_walker"]),
@@ -291,7 +298,7 @@ def test_d12_overrides_and_sweeps_obey_the_problem_bounds(tmp_path, capsys):
 
 
 def test_d12_library_sweep_rejects_a_grid_outside_the_bounds():
-    from pdw_casadi.sweep import sweep
+    from pdw_casadi.gait.sweep import sweep
 
     with pytest.raises(ProblemError, match="outside its bounds"):
         sweep(load_problem("humanlike_6link"), [5.0, 120.0], parameter="k_knee")
@@ -354,7 +361,7 @@ def test_d14_ipopt_fallback_output_is_discarded(capfd):
     import os
     import sys
 
-    from pdw_casadi.fixed_point import _quiet_stderr
+    from pdw_casadi.gait.fixed_point import _quiet_stderr
 
     with _quiet_stderr():
         print("Traceback (most recent call last): from Python", file=sys.stderr)
@@ -412,7 +419,7 @@ def test_num_says_the_same_bound_for_0_and_1(tmp_path, capsys):
     (lambda f: f.assign(hip_mean_deg=np.inf), "non-finite value inf"),
 ])
 def test_no_numpy_reprs_in_gait_file_messages(tmp_path, edit, fragment):
-    from pdw_casadi.gait_data import GaitDataError, load_gait_curves
+    from pdw_casadi.model.gait_data import GaitDataError, load_gait_curves
 
     path = tmp_path / "g.csv"
     edit(pd.read_csv(ROOT / "data" / "female_fast.csv")).to_csv(path, index=False)
@@ -427,7 +434,7 @@ def test_no_numpy_reprs_in_messages(tmp_path):
     with pytest.raises(ProblemError) as info:
         load_overrides(path, "state")
     assert "np.float64" not in str(info.value) and "got inf" in str(info.value)
-    from pdw_casadi.problem import _num
+    from pdw_casadi.model.problem import _num
 
     with pytest.raises(ProblemError) as info:
         _num("x", "k", np.float64("nan"))
@@ -479,9 +486,9 @@ def test_commands_share_the_contract():
         created = [i for i in created if i >= 0]
         assert created, name
         assert src.index("outputs.check()") < min(created), name
-    assert "outputs.create()" in inspect.getsource(cli._fit_output)
+    assert "outputs.create()" in inspect.getsource(cli_fit._fit_output)
     # the per-side fit path validates its inputs before it creates the folder too
-    src = inspect.getsource(cli._fit_stride_body)
+    src = inspect.getsource(cli_fit._fit_stride_body)
     assert src.index("outputs.check()") < src.index("_fit_output(outputs"), "_fit_stride_body"
 
 

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 from conftest import full_states
 
-from pdw_casadi.compile import Lazy, interpreted
+from pdw_casadi.engine.compile import Lazy, interpreted
 
 
 def test_native_call_matches_casadi(tmp_path, monkeypatch):

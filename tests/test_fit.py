@@ -7,11 +7,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.curves import gait_cycle
 from pdw_casadi.fit import FitOptions, fit_gait
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.gait_data import load_gait_curves
-from pdw_casadi.simulate import Simulator
+from pdw_casadi.gait.curves import gait_cycle
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.gait_data import load_gait_curves
 
 
 def synthetic_curves(problem, p_true, path, x0=None) -> pd.DataFrame:
@@ -106,7 +106,7 @@ def test_pdw_fit_rejects_bad_curve_files_and_writes_nothing(case, tmp_path, caps
     from test_gait_data import BAD
 
     from pdw_casadi.cli import fit_main
-    from pdw_casadi.resources import bundled_dir
+    from pdw_casadi.engine.resources import bundled_dir
 
     edit, message = BAD[case]
     bad = tmp_path / "bad.csv"

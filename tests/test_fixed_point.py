@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pdw_casadi.fixed_point import find_fixed_point, stability
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
+from pdw_casadi.gait.fixed_point import find_fixed_point, stability
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import load_problem
 
 
 def _top3(ev):

@@ -7,9 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.cli import _errors
-from pdw_casadi.gait_data import GaitDataError, bundled_gait_files, load_gait_curves
-from pdw_casadi.resources import bundled_dir
+from pdw_casadi.cli.contract import user_errors as _errors
+from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.model.gait_data import GaitDataError, bundled_gait_files, load_gait_curves
 
 
 @pytest.fixture(scope="module")
@@ -156,7 +156,7 @@ def test_per_side_file_loads_each_side_and_its_mean():
     """The per-side subject file: each side its own curves (the file's columns), and the
     mean of both sides is the subject's one-curve file (data/subjects/WBDS09_fast.csv, made
     from the same excerpt) to its 4-decimal rounding."""
-    from pdw_casadi.gait_data import SideCurves, load_gait_file, load_side_curves
+    from pdw_casadi.model.gait_data import SideCurves, load_gait_file, load_side_curves
 
     sides = load_gait_file(SIDES_FILE)
     assert isinstance(sides, SideCurves) and sides.name == "WBDS09_fast_sides"
@@ -229,7 +229,7 @@ BAD_SIDES = {
 
 @pytest.mark.parametrize("case", sorted(BAD_SIDES))
 def test_bad_per_side_files_are_rejected(case, sides_frame, tmp_path):
-    from pdw_casadi.gait_data import load_gait_file
+    from pdw_casadi.model.gait_data import load_gait_file
 
     edit, message = BAD_SIDES[case]
     path = _write(edit(sides_frame.copy()), tmp_path)
@@ -241,7 +241,7 @@ def test_bad_per_side_files_are_rejected(case, sides_frame, tmp_path):
 def test_per_side_loader_refuses_other_files(tmp_path):
     """load_side_curves: a one-curve file alone is not per-side; two files must each be a
     one-curve file (one per side)."""
-    from pdw_casadi.gait_data import load_side_curves
+    from pdw_casadi.model.gait_data import load_side_curves
 
     with pytest.raises(GaitDataError, match="no per-side columns"):
         load_side_curves("female_fast")
@@ -287,7 +287,7 @@ def test_pdw_fit_per_side_option_errors(argv, message, tmp_path, capsys):
 def test_two_standard_files_are_the_per_side_file(tmp_path, sides_frame):
     """--gait L.csv --gait-right R.csv: each side's standard one-curve file (the per-side
     file's columns renamed) gives the same curves as the per-side file, sample for sample."""
-    from pdw_casadi.gait_data import load_side_curves
+    from pdw_casadi.model.gait_data import load_side_curves
 
     both = load_side_curves(SIDES_FILE)
     files = {}

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.system import hybrid_system
-from pdw_casadi.timing import gait_timing, phase_contacts
-from pdw_casadi.walkers.humanlike_6link import Q_NAMES
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import gait_timing, phase_contacts
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import hybrid_system
+from pdw_casadi.model.walkers.humanlike_6link import Q_NAMES
 
 #: a stiff, late-engaging clutch spring on the ankle walker's gait: the stance ankle's
 #: plantarflexing torque carries the centre of pressure to the toe 0.41 s into the step
@@ -157,7 +157,7 @@ def test_timing_reports_heel_off():
 @pytest.fixture(scope="module")
 def shipped_gait(heeloff):
     """The shipped problem's fixed point: a gait whose stance heel lifts in single support."""
-    from pdw_casadi.fixed_point import find_fixed_point
+    from pdw_casadi.gait.fixed_point import find_fixed_point
 
     fp = find_fixed_point(heeloff, fallback=False)
     assert fp.converged
@@ -170,7 +170,7 @@ def test_shooting_nlp_closes_through_the_toe_rocker(heeloff, shipped_gait):
     """The shooting NLP at the heel-off gait has the segment chain of the simulator's plan
     (phase II ends on heel_off, II_toe on heel_strike) and its own integrator closes the
     step: every equality row (continuity, guards, transitions, periodicity) to 1e-6."""
-    from pdw_casadi.shooting import ShootingNLP
+    from pdw_casadi.nlp.shooting import ShootingNLP
 
     nlp = ShootingNLP(heeloff, shipped_gait.state, shipped_gait.parameters,
                       free=tuple(heeloff.compliance_names))
@@ -189,7 +189,7 @@ def test_poincare_jacobian_through_heel_off(heeloff, shipped_gait):
     """The exact-AD Jacobian of the step map (through the heel-off guard and the heel strike
     from the toe) matches central finite differences of the simulator's map to 1e-5
     relative."""
-    from pdw_casadi.poincare import PoincareMap
+    from pdw_casadi.gait.poincare import PoincareMap
 
     P = PoincareMap(heeloff)
     x, p = shipped_gait.state, shipped_gait.parameters

@@ -6,7 +6,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pdw_casadi.design import next_homotopy_step
+from pdw_casadi.gait.design import next_homotopy_step
 
 
 @given(done=st.floats(0.0, 0.99), nominal=st.floats(1e-3, 0.25), rejections=st.integers(1, 12))

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pdw_casadi.hybrid import GUARD, Event, HybridSystem, make_transition
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.walkers import get_family
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.hybrid import GUARD, Event, HybridSystem, make_transition
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.walkers import get_family
 
 
 def _compass_with_passing_guard():

@@ -150,7 +150,7 @@ def test_the_graph_check_finds_cycles_it_should(tmp_path):
 def test_importing_every_module_leaves_the_matplotlib_backend_alone():
     # a fresh interpreter: the backend a user (or Jupyter's inline kernel) chose must survive
     # importing any module of the package; only the command-line entry points select Agg
-    modules = sorted(import_graph(PACKAGE)[0])
+    modules = sorted(m for m in import_graph(PACKAGE)[0] if not m.endswith(".__main__"))
     code = textwrap.dedent(f"""
         import importlib, matplotlib
         matplotlib.use("svg")
@@ -162,3 +162,82 @@ def test_importing_every_module_leaves_the_matplotlib_backend_alone():
                          check=True,
                          env={k: v for k, v in os.environ.items() if k != "MPLBACKEND"})
     assert out.stdout.strip().lower() == "svg", out.stdout + out.stderr
+
+
+#: the package's layers, bottom up: a module imports only its own layer and those below
+LAYERS = ("engine", "model", "gait", "nlp", "fit", "studies", "report", "cli")
+
+
+def layer_of(module: str) -> int | None:
+    """The layer index of a module ``pdw_casadi.<layer>...`` (None: the package's face)."""
+    parts = module.split(".")
+    return LAYERS.index(parts[1]) if len(parts) > 1 and parts[1] in LAYERS else None
+
+
+def layer_violations(edges: dict[str, set[str]]) -> list[str]:
+    """Every import that reaches a layer above the importing module's own."""
+    bad = []
+    for a, targets in edges.items():
+        la = layer_of(a)
+        for b in targets:
+            lb = layer_of(b)
+            if la is not None and lb is not None and lb > la:
+                bad.append(f"{a} ({LAYERS[la]}) imports {b} ({LAYERS[lb]})")
+    return sorted(bad)
+
+
+def test_every_module_lives_in_a_layer():
+    stray = [m for m in import_graph(PACKAGE)[0]
+             if layer_of(m) is None and m not in ("pdw_casadi", "pdw_casadi._version")]
+    assert not stray, f"modules outside the layers {LAYERS}: {stray}"
+
+
+def test_every_module_imports_only_its_layer_and_the_layers_below():
+    top, nested = import_graph(PACKAGE)
+    assert layer_violations(_both(top, nested)) == []
+
+
+def test_the_layer_check_finds_an_upward_import():
+    edges = {"pdw_casadi.gait.simulate": {"pdw_casadi.model.problem", "pdw_casadi.fit.core"},
+             "pdw_casadi.cli.fit": {"pdw_casadi.fit.core"}}
+    assert layer_violations(edges) == [
+        "pdw_casadi.gait.simulate (gait) imports pdw_casadi.fit.core (fit)"]
+
+
+def private_imports(root: Path) -> list[str]:
+    """Imports of a private name (``_x``) from another module of the package."""
+    bad = []
+    for path in sorted(root.rglob("*.py")):
+        module = _module_name(path, root)
+        for node, _ in _imports(ast.parse(path.read_text())):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            source = _resolve(node, module, path.name == "__init__.py")
+            if not source.startswith(root.name):
+                continue
+            bad += [f"{module} imports {source}.{a.name}" for a in node.names
+                    if a.name.startswith("_") and not a.name.startswith("__")]
+    return bad
+
+
+def test_no_module_imports_a_private_name_of_another():
+    assert private_imports(PACKAGE) == []
+
+
+def test_the_private_name_check_finds_one(tmp_path):
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("def _helper():\n    return 1\n")
+    (pkg / "b.py").write_text("def f():\n    from .a import _helper\n    return _helper()\n")
+    assert private_imports(pkg) == ["pkg.b imports pkg.a._helper"]
+
+
+def test_importing_the_package_loads_no_numerics():
+    # ``import pdw_casadi`` is light: casadi, IPOPT and the fit load on first use of a name
+    code = ("import sys, pdw_casadi; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('casadi', 'numpy', 'pandas', 'matplotlib') or m.startswith('pdw_casadi.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "['pdw_casadi._version']", out.stdout

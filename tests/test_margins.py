@@ -1,6 +1,6 @@
 """One evaluator of validity margins: a walker output ``clearance_<anything>`` is measured by
 the simulator, checked by the fixed points' validity and constrained in the shooting NLP
-alike (:mod:`pdw_casadi.margins`)."""
+alike (:mod:`pdw_casadi.model.margins`)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from pdw_casadi.fixed_point import find_fixed_point, validity_failure, validity_slacks
-from pdw_casadi.hybrid import HybridSystem
-from pdw_casadi.margins import CLEARANCE, IMPULSE, NORMAL_FORCE, Margin, MarginKind
-from pdw_casadi.problem import load_problem
-from pdw_casadi.shooting import MARGIN_SLACK, ShootingNLP
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.walkers import get_family
+from pdw_casadi.gait.fixed_point import find_fixed_point, validity_failure, validity_slacks
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.hybrid import HybridSystem
+from pdw_casadi.model.margins import CLEARANCE, IMPULSE, NORMAL_FORCE, Margin, MarginKind
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.walkers import get_family
+from pdw_casadi.nlp.shooting import MARGIN_SLACK, ShootingNLP
 
 DEG = np.pi / 180
 NAME = "clearance_hip_over_half_leg"  # a name no walker uses: only the prefix counts

@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.parallel import map_tasks
-from pdw_casadi.problem import load_problem
-from pdw_casadi.sweep import sweep
+from pdw_casadi.engine.parallel import map_tasks
+from pdw_casadi.gait.sweep import sweep
+from pdw_casadi.model.problem import load_problem
 
 DEG = np.pi / 180
 #: 2 .. 4 deg around the bundled 3 deg compass gait: continuation has two branches

@@ -9,8 +9,8 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from pdw_casadi.gait_data import load_gait_curves
-from pdw_casadi.plots import plot_angles, plot_fit, plot_limit_cycle, plot_stick
+from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.report.plots import plot_angles, plot_fit, plot_limit_cycle, plot_stick
 
 
 @pytest.fixture(scope="module")

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import load_problem
 
 EPS = 1e-5
 RTOL = 1e-5

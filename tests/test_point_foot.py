@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.walkers import get_family
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.walkers import get_family
 
 # (problem, step period s, phase durations s) of the published period-one gaits
 PUBLISHED = {
@@ -109,7 +109,7 @@ def test_family_objects(family):
 
 
 def test_negative_inertia_rejected():
-    from pdw_casadi.problem import ProblemError
+    from pdw_casadi.model.problem import ProblemError
 
     pb = load_problem("kneed_walker")
     with pytest.raises(ProblemError, match="J_s"):

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from pdw_casadi.cli import simulate_main
-from pdw_casadi.problem import ProblemError, load_overrides, load_problem
-from pdw_casadi.resources import bundled_dir
+from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.model.problem import ProblemError, load_overrides, load_problem
 
 BUNDLED = (bundled_dir("problems") / "humanlike_6link.toml").read_text()
 

@@ -1,21 +1,17 @@
-"""Usage errors of scripts/prosthesis_design.py: bad input is refused before any solve."""
+"""Usage errors of pdw-design: bad input is refused before any solve."""
 
 from __future__ import annotations
 
 import re
-import sys
 
 import pytest
-from conftest import SCRIPTS
 
 
 @pytest.fixture(scope="module")
 def script():
-    if str(SCRIPTS) not in sys.path:
-        sys.path.insert(0, str(SCRIPTS))
-    import prosthesis_design
+    from pdw_casadi.cli import design
 
-    return prosthesis_design
+    return design
 
 
 @pytest.mark.parametrize("argv, msg", [
@@ -34,6 +30,6 @@ def script():
 ])
 def test_bad_options_are_usage_errors(script, capsys, argv, msg):
     with pytest.raises(SystemExit) as exc:
-        script.main(argv)
+        script.design_main(argv)
     assert exc.value.code == 2
     assert re.search(msg, capsys.readouterr().err)

@@ -8,24 +8,24 @@ import math
 import numpy as np
 import pytest
 
-from pdw_casadi.design import DesignOptions, continue_design
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import load_problem
-from pdw_casadi.prosthesis import atlas_problem, design_prosthesis, lighter_mass
-from pdw_casadi.scaling import (
+from pdw_casadi.cli import scale_main
+from pdw_casadi.gait.design import DesignOptions, continue_design
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.stride import (
+    per_leg_system,
+    physical_parameter_names,
+    physical_parameter_vector,
+)
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.studies.prosthesis import atlas_problem, design_prosthesis, lighter_mass
+from pdw_casadi.studies.scaling import (
     DE_LEVA_1996,
     reference_mass,
-    scale_main,
     scale_problem,
     scaled_state,
     subject_anthropometry,
     subject_row,
-)
-from pdw_casadi.stride import (
-    per_leg_system,
-    physical_parameter_names,
-    physical_parameter_vector,
 )
 
 
@@ -144,7 +144,7 @@ def test_subject_continuation_keeps_the_gait_valid():
     with the validity margins held (exact margin gradients) the continuation reaches the
     subject with a valid gait whose held clearance sits at its target and whose first phase
     keeps its duration."""
-    from pdw_casadi.scaling import walker_for_subject
+    from pdw_casadi.studies.scaling import walker_for_subject
 
     who = subject_row("WBDS09")
     start = atlas_problem("humanlike_6link-female_fast-rho0.86")

@@ -8,9 +8,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.problem import load_problem
-from pdw_casadi.shooting import ShootingNLP
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 
 @pytest.fixture(scope="module")

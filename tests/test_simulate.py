@@ -16,7 +16,7 @@ from conftest import full_states, phase_runs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pdw_casadi.simulate import Plan, Simulator
+from pdw_casadi.gait.simulate import Plan, Simulator
 
 SWAP = [3, 2, 1, 0, 5, 4]
 NO_DAMPING = {"c_ankle": 0.0, "c_knee_flex": 0.0, "c_knee_ext": 0.0, "c_knee_stance": 0.0}
@@ -234,7 +234,7 @@ def test_step_energy_balance(problem, hs, table2_step, params, numpy_walker, imp
 def test_table2_step_walks_and_matches_numpy(problem, table2_step, numpy_walker):
     """Table 2 + Table 3 at slope 0.1484: one step I -> II -> III with guards toe_off,
     heel_strike, foot_strike in this order, landing within 0.05 of where it started
-    (numpy reference: 0.01653), and the end state agrees with scripts/numpy_walker.py."""
+    (numpy reference: 0.01653), and the end state agrees with tests/numpy_walker.py."""
     res = table2_step
     assert res.failure is None and res.completed_steps == 1
     assert abs(problem.slope - 0.1484) < 1e-12
@@ -351,7 +351,7 @@ def test_section_state_maps_to_a_phase_one_state(hs, params, contact_funs, probl
 @pytest.mark.parametrize("steps", [2])
 def test_walks_several_steps_near_the_fixed_point(problem, steps):
     """Table 2 is close to a fixed point: consecutive section states stay within 0.05."""
-    from pdw_casadi.simulate import simulate
+    from pdw_casadi.gait.simulate import simulate
 
     res = simulate(problem, steps=steps, record=False)
     assert res.failure is None and res.completed_steps == steps

@@ -7,10 +7,9 @@ import pickle
 import numpy as np
 import pytest
 
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import ProblemError, load_problem, problem_from_dict
-from pdw_casadi.stride import (
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.stride import (
     StrideMap,
     find_stride_fixed_point,
     physical_parameter_names,
@@ -18,6 +17,7 @@ from pdw_casadi.stride import (
     stride_report,
     with_physical_parameters,
 )
+from pdw_casadi.model.problem import ProblemError, load_problem, problem_from_dict
 
 
 @pytest.fixture(scope="module")
@@ -227,7 +227,7 @@ def test_stride_validity_reads_both_steps_margins(symmetric):
     walker's requirements like a step's: with equal legs every slack of each step equals
     the step fixed point's, and a requirement above the gait's smallest normal force makes
     both the step and the stride gait invalid."""
-    from pdw_casadi.fixed_point import validity_slacks
+    from pdw_casadi.gait.fixed_point import validity_slacks
 
     pb, step = symmetric
     smap = StrideMap(pb)
@@ -278,8 +278,8 @@ def test_stride_timing_per_leg(symmetric):
     """Each leg's gait-cycle timing at a stride gait: its cycle lasts the stride, its speed
     is the stride length over the stride time, its stance share equals the stride report's
     (phase sums), and with equal legs both legs' timing is the step fixed point's."""
-    from pdw_casadi.stride import stride_timing
-    from pdw_casadi.timing import fixed_point_timing
+    from pdw_casadi.gait.stride import stride_timing
+    from pdw_casadi.gait.timing import fixed_point_timing
 
     pb, step = symmetric
     smap = StrideMap(pb)

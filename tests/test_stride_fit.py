@@ -10,13 +10,13 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.fit.objective import curve_errors
 from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
-from pdw_casadi.gait_data import SideCurves, load_gait_curves, load_side_curves
-from pdw_casadi.prosthesis import atlas_problem
-from pdw_casadi.resources import bundled_dir
-from pdw_casadi.shooting import ShootingNLP
-from pdw_casadi.stride import StrideMap, stride_report
+from pdw_casadi.gait.stride import StrideMap, stride_report
+from pdw_casadi.model.gait_data import SideCurves, load_gait_curves, load_side_curves
+from pdw_casadi.nlp.shooting import ShootingNLP
+from pdw_casadi.studies.prosthesis import atlas_problem
 
 SUBJECT = bundled_dir("data") / "subjects" / "WBDS09_fast_sides.csv"
 #: the atlas gait fitted to the bundled curves (the one-step fit's answer, re-solved)
@@ -27,7 +27,7 @@ FITTED = "humanlike_6link-female_fast-rho0.86"
 def fitted():
     """The fitted symmetric gait, its one-step NLP and its stride NLP (both built at the
     same fixed point, nothing free)."""
-    from pdw_casadi.fixed_point import find_fixed_point
+    from pdw_casadi.gait.fixed_point import find_fixed_point
 
     pb = atlas_problem(FITTED)
     fp = find_fixed_point(pb, fallback=False)

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from pdw_casadi.fit import StabilityRow
-from pdw_casadi.prosthesis import atlas_problem, prosthetic_problem
-from pdw_casadi.shooting import ShootingNLP
-from pdw_casadi.stride import StrideMap, find_stride_fixed_point
+from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point
+from pdw_casadi.nlp.shooting import ShootingNLP
+from pdw_casadi.studies.prosthesis import atlas_problem, prosthetic_problem
 
 
 @pytest.fixture(scope="module")
@@ -122,7 +122,7 @@ def test_stride_stability_row_gradient_matches_finite_differences(asymmetric):
 def _design_checks(base, res, lighter):
     """The designed gait re-simulated on the stride map: stable (stride radius <= 0.81),
     valid, both asymmetries below 1 %, the right leg lighter by ``lighter``."""
-    from pdw_casadi.prosthesis import lighter_mass
+    from pdw_casadi.studies.prosthesis import lighter_mass
 
     fp, rep = res.fixed_point, res.report
     assert res.reached and fp.converged and fp.valid
@@ -139,7 +139,7 @@ def test_design_nlp_makes_a_slightly_lighter_leg_symmetric_and_stable(base):
     the designed compliance brings it to <= 0.81 with equal steps (re-simulated), and the
     NLP's own stability bound rho_32 bounds the simulator's radius from above, within the
     bound's own slack (n^(1/32), n = 7 eigenvalues)."""
-    from pdw_casadi.prosthesis import DesignNLPOptions, design_prosthesis_nlp
+    from pdw_casadi.studies.prosthesis import DesignNLPOptions, design_prosthesis_nlp
 
     lighter = 0.003
     x = find_stride_fixed_point(base).state
@@ -160,7 +160,7 @@ def test_design_nlp_with_the_sound_leg_adapting(base):
     compliance values free as well: the re-simulated gait is stable, valid and symmetric,
     and the walker written carries the left leg's adapted values, which the result
     reports (they moved: the sound leg took part in the design)."""
-    from pdw_casadi.prosthesis import NLP_FREE, DesignNLPOptions, design_prosthesis_nlp
+    from pdw_casadi.studies.prosthesis import NLP_FREE, DesignNLPOptions, design_prosthesis_nlp
 
     lighter = 0.003
     x = find_stride_fixed_point(base).state
@@ -182,7 +182,7 @@ def test_design_nlp_accepts_only_verified_answers(base):
     re-simulates as stable (stride radius <= 0.81), valid and symmetric (below 1 %),
     whether IPOPT converged or stopped at its iteration limit (20 iterations: fewer than the
     0.3 % step needs to converge); without it, a stopped solve is never taken."""
-    from pdw_casadi.prosthesis import DesignNLPOptions, design_prosthesis_nlp
+    from pdw_casadi.studies.prosthesis import DesignNLPOptions, design_prosthesis_nlp
 
     lighter = 0.003
     x = find_stride_fixed_point(base).state
@@ -206,9 +206,9 @@ def test_sound_problem_undoes_prosthetic_problem(base):
     """A prosthetic walker's sound problem is the symmetric walker it was made from (every
     body and compliance value of both legs) with the mass reduction it carries; a walker
     whose masses were not scaled by one factor is refused."""
-    from pdw_casadi.problem import ProblemError
-    from pdw_casadi.prosthesis import sound_problem
-    from pdw_casadi.stride import physical_parameter_vector
+    from pdw_casadi.gait.stride import physical_parameter_vector
+    from pdw_casadi.model.problem import ProblemError
+    from pdw_casadi.studies.prosthesis import sound_problem
 
     pb = prosthetic_problem(base, 0.04)
     sound, lighter = sound_problem(pb)
@@ -236,7 +236,7 @@ def test_sound_problem_undoes_prosthetic_problem(base):
                    "infeasible); the design does not reach 10 %")
 def test_design_nlp_ten_percent_lighter(base):
     """10 % lighter by the mass homotopy: stable, valid and symmetric on re-simulation."""
-    from pdw_casadi.prosthesis import design_prosthesis_nlp
+    from pdw_casadi.studies.prosthesis import design_prosthesis_nlp
 
     res = design_prosthesis_nlp(base, lighter=0.1, log=None)
     _design_checks(base, res, 0.1)
@@ -245,16 +245,16 @@ def test_design_nlp_ten_percent_lighter(base):
 @pytest.mark.parametrize("name, lighter", [("humanlike_6link_prosthesis29", 0.289),
                                            ("humanlike_6link_prosthesis30", 0.300)])
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
-    """The designs in data/designs (the sound leg adapting, scripts/prosthesis_design.py
+    """The designs in data/designs (the sound leg adapting, pdw-design
     --free-sound ... --accept-verified from the atlas gait; the 30 % one with a 0.9 %
     symmetry tolerance too): the right shank and foot are that much lighter, and the stride map,
     with Newton started 1e-5 away from the file's gait in every component (1e-3 away the
     stride leaves the gait pattern: a fall, or the centre of pressure at the toe), returns
     to that gait: stride radius <= 0.81 (0.9 per step), valid, both asymmetries below 1 %."""
-    from pdw_casadi.problem import load_problem
-    from pdw_casadi.prosthesis import lighter_mass
-    from pdw_casadi.resources import bundled_dir
-    from pdw_casadi.stride import stride_report
+    from pdw_casadi.engine.resources import bundled_dir
+    from pdw_casadi.gait.stride import stride_report
+    from pdw_casadi.model.problem import load_problem
+    from pdw_casadi.studies.prosthesis import lighter_mass
 
     pb = load_problem(bundled_dir("data") / "designs" / f"{name}.toml")
     assert abs((1 - lighter_mass(pb)) - lighter) < 1e-3

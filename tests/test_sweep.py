@@ -8,18 +8,18 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from pdw_casadi.bifurcation import (
+from pdw_casadi.gait.bifurcation import (
     is_neimark_sacker,
     phi_fold,
     phi_neimark_sacker,
     phi_period_doubling,
 )
-from pdw_casadi.continuation import parameter_index, tangent, with_value
-from pdw_casadi.fixed_point import find_fixed_point, stability, validity_slacks
-from pdw_casadi.poincare import PoincareMap
-from pdw_casadi.problem import ProblemError, load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.sweep import sweep
+from pdw_casadi.gait.continuation import parameter_index, tangent, with_value
+from pdw_casadi.gait.fixed_point import find_fixed_point, stability, validity_slacks
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.sweep import sweep
+from pdw_casadi.model.problem import ProblemError, load_problem
 
 DEG = np.pi / 180
 
@@ -215,7 +215,7 @@ def test_sweep_of_one_legs_value_runs_on_the_stride_map():
     swept over ``right.k_ankle`` down to the left leg's value, where the stride is two equal
     steps: the stride's spectral radius is the square of the step map's and its period twice
     the step time; every row is a stride fixed point and its margins carry the stance leg."""
-    from pdw_casadi.stride import StrideMap
+    from pdw_casadi.gait.stride import StrideMap
 
     pb = load_problem("humanlike_6link")
     step = find_fixed_point(pb, tol=1e-11)

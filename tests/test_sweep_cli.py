@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from pdw_casadi.cli import COMMANDS, sweep_main
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.problem import load_problem
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.model.problem import load_problem
 
 DEG = np.pi / 180
 ARGS = ["--problem", "compass_gait", "--param", "slope", "--from", str(3 * DEG),
@@ -87,7 +87,7 @@ def test_user_errors_exit_2(tmp_path, capsys, extra, message):
 def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch, capsys):
     """The rows are appended one by one (to sweep.partial.csv until the sweep completes):
     stopping the sweep (Ctrl-C) loses nothing found, and one line says where they are."""
-    import pdw_casadi.sweep as sweep_module
+    import pdw_casadi.gait.sweep as sweep_module
 
     real, calls = sweep_module.point_row, []
 
@@ -111,9 +111,9 @@ def test_rows_found_before_an_interruption_are_on_disk(tmp_path, monkeypatch, ca
 def test_gait_file_adds_r2_of_each_rows_own_gait(tmp_path):
     """With --gait, every row carries R^2 of its own gait cycle: at the paper's slope it is
     the R^2 of the fixed point solved here directly (no sweep code involved)."""
-    from pdw_casadi.curves import fit_scores, gait_cycle
-    from pdw_casadi.gait_data import load_gait_curves
-    from pdw_casadi.simulate import Simulator
+    from pdw_casadi.gait.curves import fit_scores, gait_cycle
+    from pdw_casadi.gait.simulate import Simulator
+    from pdw_casadi.model.gait_data import load_gait_curves
 
     sw = tmp_path / "sw"
     assert sweep_main(["--problem", "humanlike_6link", "--from", "0.14839", "--to", "0.1484",

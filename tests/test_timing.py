@@ -1,4 +1,4 @@
-"""Gait timing (pdw_casadi.timing) against the simulator's own event times."""
+"""Gait timing (pdw_casadi.gait.timing) against the simulator's own event times."""
 
 from __future__ import annotations
 
@@ -8,10 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.timing import (
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import (
     HUMAN_NORMS,
     gait_timing,
     human_timing,
@@ -19,6 +18,7 @@ from pdw_casadi.timing import (
     step_timing,
     timing_table,
 )
+from pdw_casadi.model.problem import load_problem
 
 
 def _guards(events, step, name):
@@ -92,7 +92,7 @@ def test_6link_timing_algebra(t1, t2, t3):
 
 
 def test_curve_file_timing_columns_override_the_norms(tmp_path):
-    from pdw_casadi.gait_data import load_gait_curves
+    from pdw_casadi.model.gait_data import load_gait_curves
 
     src = load_gait_curves("female_fast.csv").to_frame()
     src["toe_off_pct"] = 58.5
@@ -115,7 +115,7 @@ def test_fit_timing_term_is_the_simulators_stance(problem):
     import casadi as ca
 
     from pdw_casadi.fit.driver import stance_pct_expr
-    from pdw_casadi.shooting import ShootingNLP
+    from pdw_casadi.nlp.shooting import ShootingNLP
 
     fp = find_fixed_point(problem)
     nlp = ShootingNLP(problem, fp.state, fp.parameters, free=("c_ankle",))

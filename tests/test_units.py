@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from pdw_casadi.fixed_point import find_fixed_point
-from pdw_casadi.problem import load_problem
-from pdw_casadi.simulate import Simulator
-from pdw_casadi.units import LEGS, PLAIN, SUFFIXES, Units
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.units import LEGS, PLAIN, SUFFIXES, Units
 
 
 def _has_unit(column: str) -> bool:

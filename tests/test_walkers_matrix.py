@@ -14,9 +14,9 @@ import pandas as pd
 import pytest
 
 from pdw_casadi.cli import fit_main, fixed_point_main, simulate_main, sweep_main
-from pdw_casadi.faces import walker_faces
-from pdw_casadi.plots import phase_spans, snapshot_rows
-from pdw_casadi.problem import load_problem
+from pdw_casadi.model.faces import walker_faces
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.report.plots import phase_spans, snapshot_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS_ALL = sorted(p.stem for p in (ROOT / "problems").glob("*.toml"))

@@ -11,12 +11,19 @@
   side's curves on the stride.
 """
 
-from .core import RefitCorrector, check_targets, fit_gait
-from .objective import CurveError
-from .options import FitOptions
-from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score, reference_gait
-from .stability import RADIUS_NORM, StabilityRow, smooth_radius
-from .stride_fit import StrideFitOptions, StrideFitResult, fit_stride
+from pdw_casadi.fit.core import RefitCorrector, check_targets, fit_gait
+from pdw_casadi.fit.objective import CurveError
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.fit.result import (
+           Candidate,
+           FitResult,
+           Solve,
+           evaluate_gait,
+           mean_score,
+           reference_gait,
+)
+from pdw_casadi.fit.stride_fit import StrideFitOptions, StrideFitResult, fit_stride
+from pdw_casadi.nlp.stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
            "RefitCorrector", "Solve", "StabilityRow", "StrideFitOptions", "StrideFitResult",

@@ -13,22 +13,19 @@ NLP does; so the entries come from the NLP.)
 
 Entries are stored with their curves, so a fit can rank them on the user's curves.
 
-    python -m pdw_casadi.fit.atlas --problem humanlike_6link --curves female_fast.csv
+    pdw-atlas --problem humanlike_6link --curves female_fast.csv
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 from pathlib import Path
 
 import pandas as pd
 
-from ..gait_data import GaitCurves, load_gait_curves
-from ..problem import load_problem
-from .core import fit_gait
-from .options import FitOptions
-from .starts import AtlasEntry, atlas_path, own_gait, save_atlas
+from pdw_casadi.fit.core import fit_gait
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.fit.starts import AtlasEntry, own_gait
+from pdw_casadi.model.gait_data import GaitCurves
 
 #: deformations of the walker's own curves that the variants are fitted to:
 #: (label, knee amplitude factor about its mean, hip offset in deg)
@@ -70,32 +67,3 @@ def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
         log(f"{label}: rho {b.fixed_point.spectral_radius:.4f}, R^2 to its target knee "
             f"{b.scores['r2_knee']:.4f} hip {b.scores['r2_hip']:.4f}")
     return entries
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pdw_casadi.fit.atlas",
-                                 description="Rebuild a walker's gait atlas.")
-    ap.add_argument("--problem", default="humanlike_6link")
-    ap.add_argument("--radius", type=float, nargs="+", default=[0.91, 0.86],
-                    help="stability levels of the seeds")
-    ap.add_argument("--variants", choices=("own", "all"), default="own",
-                    help="fit the walker's own curves only (the shipped atlas) or also "
-                         "their deformations (VARIANTS)")
-    ap.add_argument("--curves", nargs="*", default=["female_fast.csv"], metavar="FILE",
-                    help="human curve files whose fitted gaits become entries (default: the "
-                         "bundled female_fast.csv; none with an empty list)")
-    ap.add_argument("--out", type=Path, help="atlas file (default: the bundled one)")
-    args = ap.parse_args(argv)
-    problem = load_problem(args.problem)
-    entries = build_atlas(problem, tuple(args.radius),
-                          VARIANTS if args.variants == "all" else VARIANTS[:1],
-                          tuple(load_gait_curves(f) for f in args.curves))
-    if not entries:
-        print("error: no entry", file=sys.stderr)
-        return 1
-    print(f"wrote {save_atlas(problem, entries, args.out or atlas_path(problem.name))}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

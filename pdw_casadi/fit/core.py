@@ -1,9 +1,9 @@
 """Fit a walker's compliance and periodic gait to human knee and hip curves (one IPOPT NLP).
 
-:func:`fit_gait` transcribes one step by multiple shooting (:mod:`pdw_casadi.shooting`),
+:func:`fit_gait` transcribes one step by multiple shooting (:mod:`pdw_casadi.nlp.shooting`),
 minimises 1 - R^2 of the chosen curves (:mod:`pdw_casadi.fit.objective`) over the gait and
 the compliance (and the slope with ``free_slope``) subject to the stability row
-(:mod:`pdw_casadi.fit.stability`: the smooth spectral-radius bound of the NLP step's own
+(:mod:`pdw_casadi.nlp.stability`: the smooth spectral-radius bound of the NLP step's own
 Poincare Jacobian, exact gradient), from the atlas starts (:mod:`pdw_casadi.fit.starts`),
 then checks the answer the way a reviewer would:
 
@@ -26,15 +26,15 @@ import time
 
 import numpy as np
 
-from ..fixed_point import FixedPointResult, find_fixed_point
-from ..parallel import map_tasks
-from ..shooting import ShootingNLP
-from ..simulate import Simulator
-from .driver import FitSolver
-from .objective import TARGETS, CurveError
-from .options import FitOptions
-from .result import Candidate, FitResult, Solve, evaluate_gait, mean_score
-from .starts import Start, select_starts
+from pdw_casadi.engine.parallel import map_tasks
+from pdw_casadi.fit.driver import FitSolver
+from pdw_casadi.fit.objective import TARGETS, CurveError
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.fit.result import Candidate, FitResult, Solve, evaluate_gait, mean_score
+from pdw_casadi.fit.starts import Start, select_starts
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 
 def check_targets(problem, human, opts: FitOptions) -> None:
@@ -116,7 +116,7 @@ def _fit_start_task(args):
 def fit_gait(problem, human, options: FitOptions | None = None, log=print,
              workers: int = 1, scheduler: str | None = None) -> FitResult:
     """Fit ``problem``'s compliance (and slope with ``free_slope``) and periodic gait to
-    ``human`` curves (:class:`~pdw_casadi.gait_data.GaitCurves`).
+    ``human`` curves (:class:`~pdw_casadi.model.gait_data.GaitCurves`).
 
     Starts: the ``multistart`` gaits of the atlas and the problem's own whose curves fit
     ``human`` best, the most stable first among near-equals (:func:`select_starts`), run on
@@ -150,7 +150,7 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
 class RefitCorrector:
     """A continuation corrector that refits the compliance at every point of a sweep.
 
-    Called with (x_guess, p) by :func:`pdw_casadi.continuation.continue_branch`: the
+    Called with (x_guess, p) by :func:`pdw_casadi.gait.continuation.continue_branch`: the
     compliance of ``p`` (the neighbour's fit) is the NLP's start, the swept value of ``p``
     stays fixed, and the best stable valid fit's fixed point is returned (its ``parameters``
     hold the refitted compliance, so the next point starts from them). If the fit finds no

@@ -1,126 +1,18 @@
-"""The IPOPT driver of the fit: one NLP function with an assembled constraint Jacobian.
-
-The NLP's rows are the multiple-shooting constraints and curve-error rows (sparse, each
-depending on a few unknowns: CasADi colours their Jacobian into a few dozen sweeps) plus the
-stability row, which depends on every node. Left to CasADi, that one dense row would force
-one forward sweep per unknown (measured: 2.65 s per Jacobian instead of 0.19 s), so the NLP
-handed to IPOPT with its own constraint-Jacobian function (nlpsol's ``jac_g``): CasADi's
-sparse Jacobian of the shooting rows stacked on the stability row's exact gradient from its
-own reverse sweep (:mod:`pdw_casadi.fit.stability`).
-"""
+"""The fit's NLP on the shared IPOPT driver (:mod:`pdw_casadi.nlp.driver`): the curve
+errors as extra unknowns, the optional timing term and the stability row."""
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-from ..callback import NumericFunction
-from ..timing import human_timing, phase_contacts
-from .objective import curve_errors
-from .options import FitOptions
-from .stability import StabilityRow
-
-
-@dataclass
-class Iterate:
-    """One IPOPT iteration as the progress line shows it (R^2 from the NLP's error rows)."""
-
-    iteration: int
-    objective: float
-    infeasibility: float
-    r2: dict
-    spectral_bound: float
-    elapsed_s: float
-
-    def line(self) -> str:
-        r2 = "  ".join(f"{k} {v:.4f}" for k, v in self.r2.items())
-        rho = "" if np.isnan(self.spectral_bound) else f"  rho32 {self.spectral_bound:.4f}"
-        return (f"iter {self.iteration:4d}  objective {self.objective:.5f}  "
-                f"inf {self.infeasibility:.1e}  {r2}{rho}  {self.elapsed_s:6.1f} s")
-
-
-def _nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int):
-    """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT."""
-    P = ca.MX.sym("p", 0, 1)
-    dense = ca.Sparsity.dense
-    jac_base = ca.Function("fit_jac_base", [x], [ca.jacobian(g_base, x)])
-    g, J = g_base, jac_base(x)
-    if row is not None:
-        n = x.shape[0]
-
-        def gradient(a):
-            return [ca.DM(row.gradient(np.asarray(a[0]).ravel()[:n_w])).T]
-
-        grad = NumericFunction("stability_gradient", [dense(n, 1)], [dense(1, n_w)], gradient)
-        # the row's own Jacobian serves CasADi's derived functions (the Lagrangian gradient
-        # at the answer); IPOPT's constraint Jacobian comes from ``jac_g`` below
-        value = NumericFunction(
-            "stability_row", [dense(n, 1)], [dense(1, 1)],
-            lambda a: [row.value(np.asarray(a[0]).ravel()[:n_w])],
-            lambda name: NumericFunction(
-                name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
-                lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
-        g = ca.vertcat(g_base, value(x))
-        J = ca.vertcat(J, ca.horzcat(grad(x), ca.MX(1, n - n_w)))
-        keep = (grad, value)  # CasADi does not hold Python callbacks alive
-    else:
-        keep = ()
-    nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
-    jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, J], ["x", "p"], ["g", "jac_g_x"])
-    return nlp, jac_g, keep
-
-
-class _Progress(ca.Callback):
-    """IPOPT iteration callback: one :class:`Iterate` per iteration to ``log``."""
-
-    def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log):
-        ca.Callback.__init__(self)
-        self.n, self.m = n, m
-        self.lbg, self.ubg, self.lbx, self.ubx = lbg, ubg, lbx, ubx
-        self.r2_of, self.has_row, self.log = r2_of, has_row, log
-        self.t0 = time.perf_counter()
-        self.iter = 0
-        self.history: list[Iterate] = []
-        self.construct("pdw_fit_progress", {})
-
-    def get_n_in(self):
-        return ca.nlpsol_n_out()
-
-    def get_n_out(self):
-        return 1
-
-    def get_name_in(self, i):
-        return ca.nlpsol_out(i)
-
-    def get_name_out(self, i):
-        return "ret"
-
-    def get_sparsity_in(self, i):
-        n = ca.nlpsol_out(i)
-        if n in ("x", "lam_x"):
-            return ca.Sparsity.dense(self.n)
-        if n in ("g", "lam_g"):
-            return ca.Sparsity.dense(self.m)
-        if n == "f":
-            return ca.Sparsity.dense(1)
-        return ca.Sparsity(0, 0)
-
-    def eval(self, arg):
-        d = dict(zip(ca.nlpsol_out(), arg, strict=False))
-        x, g = np.asarray(d["x"]).ravel(), np.asarray(d["g"]).ravel()
-        inf = max(float(np.max(self.lbg - g, initial=0)), float(np.max(g - self.ubg, initial=0)),
-                  float(np.max(self.lbx - x, initial=0)), float(np.max(x - self.ubx, initial=0)))
-        it = Iterate(self.iter, float(d["f"]), inf, self.r2_of(x),
-                     float(g[-1]) if self.has_row else float("nan"),
-                     time.perf_counter() - self.t0)
-        self.history.append(it)
-        self.iter += 1
-        if self.log is not None:
-            self.log(it.line())
-        return [0]
+from pdw_casadi.fit.objective import curve_errors
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.gait.timing import human_timing, phase_contacts
+from pdw_casadi.nlp.driver import Progress, ipopt_settings, nlp_functions, succeeded
+from pdw_casadi.nlp.stability import StabilityRow
 
 
 def stance_pct_expr(nlp) -> ca.MX:
@@ -135,7 +27,7 @@ def stance_pct_expr(nlp) -> ca.MX:
 
 
 class FitSolver:
-    """IPOPT on one :class:`~pdw_casadi.shooting.ShootingNLP` with the curve objective.
+    """IPOPT on one :class:`~pdw_casadi.nlp.shooting.ShootingNLP` with the curve objective.
 
     The curve errors at the 101 cycle points are extra unknowns E (E - err(w) = 0), so the
     objective sum E^2 / SS_tot has a trivial gradient and each error row depends on few
@@ -178,7 +70,7 @@ class FitSolver:
         self.x = ca.vertcat(nlp.w, self.e)
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
             if opts.stability_constraint and nlp.free else None
-        self.nlp_fun, self.jac_g, self._keep = _nlp_functions(
+        self.nlp_fun, self.jac_g, self._keep = nlp_functions(
             self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
@@ -204,14 +96,8 @@ class FitSolver:
     def solve(self, w0) -> dict:
         """Solve from ``w0`` (ShootingNLP unknowns): the answer, IPOPT status, iterations."""
         opts = self.opts
-        ipopt = {"hessian_approximation": opts.hessian, "max_iter": opts.max_iter,
-                 "tol": opts.tol, "acceptable_tol": 100 * opts.tol, "acceptable_iter": 10,
-                 "print_level": 0, "sb": "yes", "mu_strategy": "adaptive"}
-        if opts.log_file:
-            ipopt.update({"output_file": str(opts.log_file), "file_print_level": 5,
-                          "file_append": "yes"})
-        ipopt.update(opts.ipopt)
-        progress = _Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
+        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, opts.ipopt, opts.log_file)
+        progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
                              self.ubx, self.r2_of, self.row is not None,
                              self.log if opts.verbose else None)
         solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
@@ -234,6 +120,5 @@ class FitSolver:
         return {"w": x[: self.n_w], "objective": f,
                 "status": st["return_status"],
                 "iterations": int(st["iter_count"]), "wall_time_s": time.perf_counter() - t0,
-                "success": st["return_status"] in ("Solve_Succeeded",
-                                                   "Solved_To_Acceptable_Level"),
+                "success": succeeded(st["return_status"]),
                 "history": progress.history}

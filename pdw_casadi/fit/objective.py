@@ -7,7 +7,7 @@ and 100 (2T - t_hs + t) / (2T) before it. A walker whose step itself begins at t
 strike (``heel_strike_phase`` None: point feet) has t_hs = 0. The objective is the 101-point sum of
 squared errors of R^2 itself (see :func:`curve_errors`), divided by the human curve's sum of
 squares about its mean: 1 - R^2 per curve. The R^2 we report is always the one of the
-re-simulated gait (:mod:`pdw_casadi.curves`).
+re-simulated gait (:mod:`pdw_casadi.gait.curves`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ..curves import cycle_time
-from ..errors import CurveError
+from pdw_casadi.engine.errors import CurveError
+from pdw_casadi.gait.curves import cycle_time
 
 #: two samples of one part further apart than this many times its median sample spacing do
 #: not bracket the cycle points between them (a gap in the part, not an RK4 interval; the
@@ -35,7 +35,7 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     The model's value at cycle point j is the linear interpolation between the two RK4
     samples (0.5 ms apart, of the leg whose part of the cycle holds j) that bracket it in the
     starting gait, at the point's own cycle percentage, which moves with the durations: the
-    same interpolation as :func:`pdw_casadi.curves.gait_cycle`, so the objective is the R^2
+    same interpolation as :func:`pdw_casadi.gait.curves.gait_cycle`, so the objective is the R^2
     we report as long as the bracket holds, and stays smooth when it drifts.
     """
     names = set(nlp.output_names(nlp.specs[0].phase))

@@ -58,7 +58,7 @@ class FitOptions:
     segment_headroom_s: float = 0.0
     #: weight of the optional timing target (0: off, pdw-fit --timing): the objective adds
     #: timing_weight ((stance % - the human toe-off %) / 10 %)^2, the model's stance in % of
-    #: its gait cycle from the NLP's own phase durations (pdw_casadi.timing); R^2 is unchanged
+    #: its gait cycle from the NLP's own phase durations (pdw_casadi.gait.timing); R^2 is unchanged
     timing_weight: float = 0.0
     #: with the timing target on, every segment may grow this much (s): double support must
     #: be free to grow from a few ms to tens of ms within one solve

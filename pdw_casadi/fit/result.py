@@ -8,11 +8,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..curves import cycle_curves, fit_scores, gait_cycle
-from ..fixed_point import FixedPointResult, find_fixed_point
-from ..simulate import Simulator
-from ..timing import step_timing, timing_or_none
-from .options import FitOptions
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.gait.curves import cycle_curves, fit_scores, gait_cycle
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import step_timing, timing_or_none
 
 
 @dataclass

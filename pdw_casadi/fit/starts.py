@@ -2,7 +2,7 @@
 
 The paper's Table 3 gait sits within 0.01 % of a fold in k_knee, and random perturbations
 of its compliance have no fixed point; an NLP started there must first leave the fold.
-The atlas (``data/atlas/<problem>.json``, rebuilt by ``python -m pdw_casadi.fit.atlas``)
+The atlas (``data/atlas/<problem>.json``, rebuilt by ``pdw-atlas``)
 holds stable, valid fixed points of a walker, each with its gait-cycle curves and spectral
 radius: gaits fitted to the walker's own curves and to the bundled cohort's curves, each at
 two stability levels. A fit starts from the gaits, among the atlas entries and the problem's
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..curves import cycle_curves, fit_scores
-from ..fixed_point import find_fixed_point
-from ..resources import bundled_dir
-from ..simulate import Simulator
-from .options import FitOptions
+from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.gait.curves import cycle_curves, fit_scores
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
 
 
 @dataclass

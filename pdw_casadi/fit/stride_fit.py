@@ -1,7 +1,7 @@
 """Fit each leg to its own side's human curves on the stride (two steps, legs may differ).
 
 :func:`fit_stride` solves the stride multiple-shooting NLP
-(:meth:`~pdw_casadi.shooting.ShootingNLP.stride`: step 0 with the left leg in stance,
+(:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`: step 0 with the left leg in stance,
 step 1 with the right) for a periodic stride and each leg's free compliance (``left.k_ankle``,
 ``right.k_ankle``, ...), minimising the sum over legs and curves of 1 - R^2 of each leg's gait
 cycle against its side's curves (:mod:`.stride_objective`), with the stability row on the
@@ -11,7 +11,8 @@ sides (:func:`~pdw_casadi.fit.fit_gait`; with ``start="atlas"``, from the atlas 
 fits that mean best), repeated twice, and checks the answer on the stride map as
 the step fit does: 20-step re-simulation with the legs' parameters alternating (deviation
 < 1e-6), the stride fixed point, its exact-AD spectral radius (<= ``max_radius``^2) and
-validity. R^2 is that of the re-simulated gait, per leg (:func:`pdw_casadi.stride.stride_report`).
+validity. R^2 is that of the re-simulated gait, per leg
+(:func:`pdw_casadi.gait.stride.stride_report`).
 """
 
 from __future__ import annotations
@@ -22,24 +23,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..curves import fit_scores
-from ..errors import CurveError, NoGait, PoincareError
-from ..fixed_point import FixedPointResult, find_fixed_point
-from ..gait_data import SIDES
-from ..shooting import ShootingNLP
-from ..simulate import Simulator
-from ..stride import (
+from pdw_casadi.engine.errors import CurveError, NoGait, PoincareError
+from pdw_casadi.fit.core import check_targets, fit_gait
+from pdw_casadi.fit.driver import FitSolver
+from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.fit.result import Solve
+from pdw_casadi.fit.starts import select_starts
+from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
+from pdw_casadi.gait.curves import fit_scores
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.stride import (
     StrideMap,
     find_stride_fixed_point,
     physical_parameter_vector,
     stride_report,
 )
-from .core import check_targets, fit_gait
-from .driver import FitSolver
-from .options import FitOptions
-from .result import Solve
-from .starts import select_starts
-from .stride_objective import side_targets, stride_curve_errors
+from pdw_casadi.model.gait_data import SIDES
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 
 @dataclass
@@ -83,7 +84,7 @@ class StrideFitOptions(FitOptions):
 @dataclass
 class StrideCandidate:
     """A fitted stride with its checks: the stride fixed point (stability, validity), the
-    per-leg report (:func:`~pdw_casadi.stride.stride_report`, with curves), R^2 per leg
+    per-leg report (:func:`~pdw_casadi.gait.stride.stride_report`, with curves), R^2 per leg
     (``scores[side]``), the re-simulation deviation (rad, rad/s) of the NLP's section states
     over ``resim_steps`` steps, and the NLP objective (sum of 1 - R^2 over legs and curves)."""
 
@@ -206,7 +207,7 @@ def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
 def fit_stride(problem, sides, options: StrideFitOptions | None = None,
                log=print) -> StrideFitResult:
     """Fit each leg of ``problem``'s walker to its side of ``sides``
-    (:class:`~pdw_casadi.gait_data.SideCurves`) on the stride NLP (module docstring).
+    (:class:`~pdw_casadi.model.gait_data.SideCurves`) on the stride NLP (module docstring).
     ``problem``: a symmetric walker (the start is its symmetric gait repeated twice), or one
     whose legs differ (the start is its own stride fixed point)."""
     opts = options or StrideFitOptions()

@@ -1,6 +1,6 @@
 """The per-leg curve objective on the stride NLP: 1 - R^2 of each leg against its side's curves.
 
-A stride (:meth:`~pdw_casadi.shooting.ShootingNLP.stride`) is two steps, the left leg in
+A stride (:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`) is two steps, the left leg in
 stance in step 0 (it is leg 1 there, leg 2 in step 1), the right leg in step 1. Each
 physical leg's gait cycle runs from its own heel strike to its next one: its heel strikes
 in the step before its stance step (at the start of that step's heel-strike phase, where it
@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ..errors import CurveError
-from ..gait_data import SIDES
-from .objective import TARGETS, interpolated_errors
+from pdw_casadi.engine.errors import CurveError
+from pdw_casadi.fit.objective import TARGETS, interpolated_errors
+from pdw_casadi.model.gait_data import SIDES
 
 
 def side_targets(targets) -> tuple[str, ...]:
@@ -48,8 +48,8 @@ def _check(nlp, sides, targets) -> None:
 def stride_curve_errors(nlp, sides, targets=("knee", "hip")) -> dict:
     """Per leg and target (``left.knee``, ...): (err, SS_tot), the model minus the side's
     human angle (deg) at its 101 cycle points (1 x 101 MX of the stride NLP's unknowns), so
-    that sum err^2 / SS_tot is that leg's 1 - R^2 (:func:`pdw_casadi.curves.r_squared`).
-    ``sides``: :class:`~pdw_casadi.gait_data.SideCurves`."""
+    that sum err^2 / SS_tot is that leg's 1 - R^2 (:func:`pdw_casadi.gait.curves.r_squared`).
+    ``sides``: :class:`~pdw_casadi.model.gait_data.SideCurves`."""
     if nlp.n_steps != 2:
         raise ValueError("stride_curve_errors needs a two-step (stride) NLP")
     _check(nlp, sides, targets)

@@ -1,0 +1,248 @@
+"""``pdw-fit``: fit a walker's compliance and a stable periodic gait to human curves."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from pdw_casadi.cli.common import (
+    check_curve_walker,
+    common_parser,
+    load_cli_problem,
+    parallel_arguments,
+    parse_command,
+    require_one_leg_set,
+)
+from pdw_casadi.cli.contract import (
+    NoGait,
+    Outputs,
+    Parser,
+    UsageError,
+    check_input_file,
+    connect_scheduler,
+    int_range,
+    open_interval,
+    run,
+)
+from pdw_casadi.engine.errors import ProblemError
+from pdw_casadi.model.problem import Problem, check_bounds
+
+
+def _fit_output(outputs: Outputs, opts) -> Path:
+    """Create a fit's output folder and point IPOPT's log at a fresh ``ipopt.log`` in it."""
+    out = outputs.create()
+    outputs.notes.append(f"the report files are written only at the end, into {out}")
+    log_file = out / "ipopt.log"
+    log_file.unlink(missing_ok=True)
+    opts.log_file = str(log_file)
+    return out
+
+
+def fit_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-fit --gait FILE``: fit the compliance and a stable periodic gait to human curves.
+
+    One multiple-shooting IPOPT NLP per start (see :mod:`pdw_casadi.fit`), verified by a
+    20-step re-simulation and the exact-AD spectral radius. Writes ``summary.json``,
+    ``curves.csv``, ``fit.png`` (Fig. 5 with the problem's own compliance and, for a walker
+    that has one, its comparison walker; the gait events marked), ``limit_cycle.png``
+    (Fig. 4) and ``table.md`` (R^2, then the gait timing beside human values).
+    ``--timing [W]`` adds the timing target (:class:`~pdw_casadi.fit.FitOptions`
+    ``timing_weight``).
+    Exit code 1 when no stable valid gait was found (the outputs then describe the best
+    candidate and say so). The walker needs knee and hip outputs and something to fit
+    (compliance values, or ``--free-slope``).
+    """
+    parser = Parser(
+        prog="pdw-fit", parents=[common_parser(out_default="fit")],
+        description="Fit compliance and a stable periodic gait to human knee/hip curves.")
+    parser.add_argument("--gait", required=True, metavar="FILE",
+                        help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
+    parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000), default=1,
+                        metavar="N",
+                        help="starts: the problem's own gait, then the N - 1 gait-atlas "
+                             "entries whose curves fit best (default: %(default)s)")
+    parser.add_argument("--atlas", metavar="FILE",
+                        help="gait atlas of the further starts (default: the bundled one "
+                             "of the problem; 'none': no atlas)")
+    parser.add_argument("--free-slope", action="store_true",
+                        help="let the slope be an unknown too (0.05..0.25 rad)")
+    parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
+                        help="hip curve in the objective: the paper's hip (thigh + slope) "
+                             "or the thigh from the vertical (default: %(default)s)")
+    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
+                        default=0.91, metavar="R",
+                        help="largest accepted spectral radius, in (0, 1) "
+                             "(default: %(default)s)")
+    parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0), nargs="?",
+                        const=1.0, default=0.0, metavar="W",
+                        help="also fit the timing: add W ((stance %% - human toe-off %%) / "
+                             "10 %%)^2 to the objective (human toe off: the gait file's "
+                             "toe_off_pct column, else 60 %%, Perry & Burnfield); R^2 is "
+                             "unchanged (default W when given: 1)")
+    parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=300,
+                        help="IPOPT iterations per solve (default: %(default)s)")
+    parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
+                        help="NLP solves per start: a further one is built at the answer only "
+                             "when the objective's sample brackets moved (default: %(default)s)")
+    parallel_arguments(parser, "the multistart")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress lines (the IPOPT log is still written to "
+                             "DIR/ipopt.log)")
+    g = parser.add_argument_group(
+        "per-leg fit", "a curve file with per-side columns (knee_left_mean_deg, ...; or "
+        "--gait-right) fits each leg to its side on the stride")
+    g.add_argument("--gait-right", metavar="FILE",
+                   help="the right side's curve file; --gait is then the left side's")
+    g.add_argument("--side", choices=("both", "left", "right"), default=None,
+                   help="per-leg fit: whose compliance is free (default: both)")
+    g.add_argument("--stride-start", choices=("fit", "atlas"), default="fit",
+                   help="per-leg fit: start from the symmetric fit to the mean of both "
+                        "sides, or from the atlas gait that fits that mean best (no extra "
+                        "solve) (default: %(default)s)")
+    args, outputs = parse_command(parser, argv)
+
+    def body() -> int:
+        from pdw_casadi.model.gait_data import SideCurves, load_gait_file, load_side_curves
+
+        if args.gait_right is not None:
+            human = load_side_curves(args.gait, args.gait_right)
+        else:
+            human = load_gait_file(args.gait)
+        problem = load_cli_problem(args)
+        if isinstance(human, SideCurves):
+            return _fit_stride_body(args, outputs, problem, human)
+        if args.side is not None:
+            raise UsageError(f"--side needs per-side curves (columns such as "
+                             f"knee_left_mean_deg, or --gait-right); {human.source} has one "
+                             f"curve set")
+        require_one_leg_set(problem)
+        if args.hip_target == "thigh" and human.thigh_deg is None:
+            raise UsageError(f"--hip-target thigh needs a thigh column in the gait file "
+                             f"{human.source} (it has none); use --hip-target hip")
+        check_curve_walker(problem, "pdw-fit")
+        if not problem.compliance and not args.free_slope:
+            raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
+                             f"to fit; add --free-slope to fit the slope")
+        outputs.check()
+        from pdw_casadi.fit import FitOptions
+        from pdw_casadi.report.fit_report import fit_and_report
+
+        atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+        if atlas:
+            check_input_file(Path(atlas), "--atlas")
+        if args.scheduler is not None:
+            connect_scheduler(args.scheduler)  # the address answers before anything is written
+        opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
+                          max_radius=args.max_radius, multistart=args.multistart,
+                          atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
+                          timing_weight=args.timing,
+                          verbose=not args.quiet)
+        from pdw_casadi.fit import check_targets
+
+        check_targets(problem, human, opts)
+        out = _fit_output(outputs, opts)
+        summary = fit_and_report(problem, human, opts, out, workers=args.workers,
+                                 scheduler=args.scheduler,
+                                 log=lambda m: print(m, file=sys.stderr, flush=True))
+        for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
+                     "ipopt.log"):
+            outputs.wrote(out / name)
+        print(summary["headline"])
+        print(f"wrote {out}")
+        if not (summary["stable"] and summary["valid"]):
+            raise NoGait(f"no stable valid gait: {summary['headline']}")
+        return 0
+
+    return run(outputs, body)
+
+
+def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
+    """pdw-fit with per-side curves: each leg fitted to its side on the stride
+    (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
+    from pdw_casadi.fit.stride_fit import StrideFitOptions, check_stride_targets
+    from pdw_casadi.gait.stride import StrideMap
+    from pdw_casadi.report.fit_stride_report import fit_stride_and_report
+
+    if args.timing:
+        raise UsageError("--timing is a one-step fit's target; a per-leg fit has none")
+    if args.workers > 1 or args.scheduler is not None or args.multistart > 1:
+        raise UsageError("--multistart, --workers and --scheduler are one-step fit options "
+                         "(a per-leg fit solves one stride NLP)")
+    if args.hip_target == "thigh" and (sides.left.thigh_deg is None):
+        raise UsageError(f"--hip-target thigh needs thigh columns in {sides.source}")
+    check_curve_walker(problem, "pdw-fit")
+    if not problem.compliance:
+        raise UsageError(f"{problem.name} ({problem.family}) has no compliance values to fit "
+                         f"per leg")
+    try:
+        StrideMap(problem)
+    except ProblemError as exc:
+        raise UsageError(str(exc)) from None
+    outputs.check()
+    atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+    if atlas:
+        check_input_file(Path(atlas), "--atlas")
+    opts = StrideFitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
+                            max_radius=args.max_radius, atlas=atlas, max_iter=args.max_iter,
+                            rounds=args.rounds, verbose=not args.quiet,
+                            side=args.side or "both", start=args.stride_start)
+    check_stride_targets(problem, sides, opts)
+    out = _fit_output(outputs, opts)
+    summary = fit_stride_and_report(problem, sides, opts, out,
+                                    log=lambda m: print(m, file=sys.stderr, flush=True))
+    for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
+        outputs.wrote(out / name)
+    print(summary["headline"])
+    print(f"wrote {out}")
+    if not summary["accepted"]:
+        raise NoGait(f"no stable valid stride: {summary['headline']}")
+    return 0
+
+
+def load_fit_start(problem: Problem, path: Path) -> Problem:
+    """``problem`` with compliance, slope and section state taken from a fit summary.
+
+    The summary (JSON) holds ``compliance`` (problem compliance names -> values), ``slope``
+    (rad) and ``fixed_point`` (section-state names -> values, rad and rad/s). The
+    compliance obeys the problem's ``compliance_bounds``.
+    """
+    path = check_input_file(path, "--from-fit")
+    try:
+        raw = json.loads(Path(path).read_text())
+    except UnicodeDecodeError:
+        raise ProblemError(f"{path}: not a fit summary (not UTF-8 text)") from None
+    except ValueError as exc:
+        raise ProblemError(f"{path}: not valid JSON: {exc}") from None
+    if not isinstance(raw, dict):
+        kind = {list: "a list", str: "a string", bool: "a boolean", type(None): "null",
+                int: "a number", float: "a number"}.get(type(raw), type(raw).__name__)
+        raise ProblemError(f"{path}: a fit summary must be a JSON object with the keys "
+                           f"compliance, slope and fixed_point; got {kind}")
+    missing = [k for k in ("compliance", "slope", "fixed_point") if k not in raw]
+    if missing:
+        raise ProblemError(f"{path}: a fit summary needs the keys compliance, slope and "
+                           f"fixed_point; missing: {', '.join(missing)}")
+    if not isinstance(raw["compliance"], dict) or not isinstance(raw["fixed_point"], dict):
+        raise ProblemError(f"{path}: 'compliance' and 'fixed_point' must be tables")
+    if isinstance(raw["slope"], bool) or not isinstance(raw["slope"], int | float) \
+            or not math.isfinite(raw["slope"]):
+        raise ProblemError(f"{path}: 'slope' must be a finite number (rad), got "
+                           f"{raw['slope']!r}")
+    for table in ("compliance", "fixed_point"):
+        for k, v in raw[table].items():
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise ProblemError(f"{path}: '{table}.{k}' must be a finite number, got "
+                                   f"{v!r}")
+    try:
+        new = problem.replace(compliance=raw["compliance"], slope=float(raw["slope"])) \
+            .with_state(raw["fixed_point"])
+        check_bounds(new, raw["compliance"], path)
+        return new
+    except ProblemError as exc:
+        text = str(exc)
+        raise ProblemError(text if text.startswith(str(path)) else f"{path}: {text}") from None
+
+

@@ -1,0 +1,138 @@
+"""``pdw-fixed-point``: a periodic gait, its eigenvalues and validity margins."""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from pdw_casadi.cli.common import (
+    TOL_RANGE,
+    common_parser,
+    load_cli_problem,
+    parse_command,
+    tolerance,
+)
+from pdw_casadi.cli.contract import (
+    NoGait,
+    Parser,
+    run,
+)
+from pdw_casadi.engine.jsonio import write_json
+from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
+
+
+def fixed_point_main(argv: Sequence[str] | None = None) -> int:
+    """``pdw-fixed-point``: find a periodic gait, its eigenvalues and validity margins.
+
+    Writes ``summary.json`` (fixed_point, residual, iterations, eigenvalues as [re, im],
+    spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
+    failure, distance_from_initial, timing: stance/swing/double support %, cadence, gait
+    events, :mod:`pdw_casadi.gait.timing`; identical for identical runs) and ``limit_cycle.png``
+    (paper's Fig. 4); the wall time goes to stdout only. Exit code 1 when Newton (and its
+    IPOPT fallback) found no fixed point.
+    """
+    parser = Parser(
+        prog="pdw-fixed-point", parents=[common_parser()],
+        description="Newton on the Poincare map with its exact AD Jacobian.")
+    parser.add_argument("--tol", type=tolerance(), default=1e-10,
+                        help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
+                             "(default: %(default)s)")
+    parser.add_argument("--stride", action="store_true",
+                        help="solve on the stride map (two steps, one per physical leg); "
+                             "always so when the problem's legs differ")
+    args, outputs = parse_command(parser, argv)
+
+    def body() -> int:
+        problem = load_cli_problem(args)
+        outputs.check()
+        from pdw_casadi.gait.fixed_point import find_fixed_point
+        from pdw_casadi.gait.simulate import Simulator
+        from pdw_casadi.model.faces import walker_faces
+        from pdw_casadi.model.system import hybrid_system
+        from pdw_casadi.model.units import summary_units
+        from pdw_casadi.report.plots import plot_limit_cycle
+
+        stride = args.stride or problem.asymmetric
+        faces = None if stride else walker_faces(problem)
+        out = outputs.create()
+        print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
+              file=sys.stderr)
+        if stride:  # the two-step map: parameters follow the physical legs
+            from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point
+
+            smap = StrideMap(problem)
+            res = find_stride_fixed_point(problem, tol=args.tol, smap=smap)
+        else:
+            res = find_fixed_point(problem, tol=args.tol, verbose=True)
+        summary = res.to_dict()
+        wall = summary.pop("wall_time_s", None)  # timings are not part of the result
+        summary["distance_from_initial"] = float(
+            np.linalg.norm(res.state - problem.state_vector()))
+        summary["problem"] = problem.name
+        summary["initial_state"] = dict(problem.initial_state)
+        if res.converged and not stride:
+            summary["timing"] = timing_or_none(lambda: fixed_point_timing(
+                problem, res.state, res.parameters))
+        if stride:
+            summary["map"] = "stride (left-stance step, then right-stance step)"
+            if res.converged:
+                summary.update(_stride_outputs(smap, res, out, outputs))
+        summary["units"] = summary_units(summary, smap.hs if stride else hybrid_system(problem))
+        write_json(outputs.wrote(out / "summary.json"), summary)
+        if res.converged and not stride:
+            sim = Simulator(problem)
+            two = sim.run(res.state, res.parameters, steps=2, record=True)
+            plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
+                             faces=faces,
+                             title=f"{problem.name}: limit cycle of one leg over two steps")
+        ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
+        print(f"converged={res.converged} residual={res.residual:.2e} "
+              f"iterations={res.iterations} spectral radius={res.spectral_radius:.4f} "
+              f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
+              f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
+        print(f"eigenvalues: {ev}")
+        print(f"wrote {out}" + (f" ({wall:.2f} s)" if wall is not None else ""))
+        if not res.converged:
+            why = (f"|P(x) - x| = {res.residual:.3g} > {args.tol:g}"
+                   f"{', ' + str(res.failure) if res.failure else ''}"
+                   if math.isfinite(res.residual) else
+                   f"the walker fails in the first step from it: {res.failure}")
+            raise NoGait(f"no fixed point of {problem.name} near its initial state ({why}); "
+                         f"the summary is in {out / 'summary.json'}")
+        return 0
+
+    return run(outputs, body)
+
+
+def _stride_outputs(smap, res, out: Path, outputs) -> dict:
+    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``; per leg its
+    step, stance and swing and the timing of its own gait cycle) and the per-leg knee/hip
+    curves in ``leg_curves.csv`` and ``leg_curves.png``."""
+    import pandas as pd
+
+    from pdw_casadi.gait.stride import stride_report, stride_timing
+    from pdw_casadi.report.plots import plot_leg_curves
+
+    rep = stride_report(smap, res.state, res.parameters)
+    timing = timing_or_none(lambda: stride_timing(smap, res.state, res.parameters))
+    if timing is not None:  # each physical leg's own gait cycle
+        for side, t in timing.items():
+            rep["legs"][side]["timing"] = t.to_dict()
+    curves = rep.pop("curves")
+    frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
+    frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)
+    plot_leg_curves(curves, outputs.wrote(out / "leg_curves.png"),
+                    title=f"{smap.problem.name}: knee and hip per leg")
+    rep["step_spectral_radius_equivalent"] = float(np.sqrt(res.spectral_radius))
+    print(f"step length L/R {rep['legs']['left']['step_length_m']:.4f} / "
+          f"{rep['legs']['right']['step_length_m']:.4f} m "
+          f"(asymmetry {rep['step_length_asymmetry_pct']:+.3f} %), step time L/R "
+          f"{rep['legs']['left']['step_time_s']:.4f} / {rep['legs']['right']['step_time_s']:.4f}"
+          f" s (asymmetry {rep['step_time_asymmetry_pct']:+.3f} %)")
+    return {"stride": rep}
+
+

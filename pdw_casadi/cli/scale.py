@@ -1,0 +1,108 @@
+"""``pdw-scale``: a problem file for a subject's body (de Leva 1996 segment table)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from pdw_casadi.cli.contract import (
+    NoGait,
+    Outputs,
+    Parser,
+    check_output_file,
+    open_interval,
+    run,
+)
+from pdw_casadi.model.problem import ProblemError, load_problem
+from pdw_casadi.studies.scaling import (
+    SEXES,
+    problem_toml,
+    reference_height,
+    reference_mass,
+    scale_problem,
+    scaled_state,
+    subject_row,
+    subject_walker,
+)
+
+
+def scale_main(argv=None) -> int:
+    """``pdw-scale``: a problem file for a subject's body (see the module docstring).
+
+    ``--mass KG --height M [--sex female|male]`` or ``--subject ID`` (a bundled subject);
+    ``--body deleva`` (default: the de Leva 1996 body, reached by continuation from the
+    uniformly scaled reference, compliance adapted) or ``--body uniform`` (the reference
+    scaled by the exact law only). Writes ``--out FILE.toml`` with the gait found as its
+    initial state; exit code 1 (nothing written) when the continuation does not reach the
+    subject.
+    """
+    parser = Parser(prog="pdw-scale", description="Scale the walker to a subject's body "
+                    "(de Leva 1996 segment table).")
+    parser.add_argument("--mass", type=open_interval("--mass", 20.0, 200.0), metavar="KG",
+                        help="body mass, kg (20..200)")
+    parser.add_argument("--height", type=open_interval("--height", 1.2, 2.2), metavar="M",
+                        help="height, m (1.2..2.2)")
+    parser.add_argument("--sex", choices=SEXES, default="female")
+    parser.add_argument("--subject", metavar="ID",
+                        help="a bundled subject (mass, height and sex from "
+                             "data/anthropometry/subjects.csv), e.g. WBDS09")
+    parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
+    parser.add_argument("--problem", default="humanlike_6link",
+                        help="reference problem (default: %(default)s)")
+    parser.add_argument("--out", type=Path, required=True, metavar="FILE.toml")
+    args = parser.parse_args(argv)
+    outputs = Outputs(args.out.parent if str(args.out.parent) else Path("."))
+
+    def body() -> int:
+        check_output_file(args.out, "--out", (".toml",))
+        if args.subject:
+            if args.mass is not None or args.height is not None:
+                raise ProblemError("give either --subject or --mass and --height")
+            who = subject_row(args.subject)
+        elif args.mass is None or args.height is None:
+            raise ProblemError("give --mass and --height (or --subject ID)")
+        else:
+            who = {"mass_kg": args.mass, "height_m": args.height, "sex": args.sex}
+        ref = load_problem(args.problem)
+        print(f"scaling {ref.name} to {who['mass_kg']:g} kg, {who['height_m']:g} m, "
+              f"{who['sex']} ({args.body})...", file=sys.stderr)
+        t0 = time.perf_counter()
+        if args.body == "uniform":
+            from pdw_casadi.gait.fixed_point import find_fixed_point
+
+            fp0 = find_fixed_point(ref)
+            if not fp0.converged:
+                raise NoGait(f"no fixed point of {ref.name} near its initial state")
+            s = who["height_m"] / reference_height(ref, who["sex"])
+            m = who["mass_kg"] / reference_mass(ref)
+            pb = scale_problem(ref, s, m, name=args.out.stem).with_state(scaled_state(
+                ref, fp0.state, s))
+            rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
+        else:
+            res = subject_walker(who["mass_kg"], who["height_m"], who["sex"], ref,
+                                 log=lambda line: print(line, file=sys.stderr))
+            lam = res.path[-1][0]
+            if not res.reached:
+                raise NoGait(f"the continuation from the uniformly scaled reference stopped "
+                             f"at lambda = {lam:.4f} of the way to the subject's body "
+                             f"(best of {ref.name}'s reference gaits; nothing written)")
+            fp = res.fixed_point
+            pb, rho = res.problem.replace(name=args.out.stem), fp.spectral_radius
+            held = ", ".join(f"{k} held at {v:.4g} from lambda {lam_:g}"
+                             for k, (lam_, v) in res.held.items()) or "none held"
+            note = (f"continuation in the body from the uniformly scaled reference ({res.start}"
+                    f" gait), {len(res.path)} points, compliance adapted; validity margins: "
+                    f"{held}; {'stable' if fp.stable else 'NOT stable'}, valid")
+        header = (f"# {who['mass_kg']:g} kg, {who['height_m']:g} m, {who['sex']}: written by "
+                  f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
+                  f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"
+                  f"\n# gait: {note}; spectral radius {rho:.4f}\n")
+        outputs.create()
+        args.out.write_text(problem_toml(pb, header))
+        outputs.wrote(args.out)
+        print(f"wrote {args.out} (spectral radius {rho:.4f}, lambda {lam:g}, "
+              f"{time.perf_counter() - t0:.1f} s)")
+        return 0
+
+    return run(outputs, body)

@@ -1,0 +1,148 @@
+"""One IPOPT driver for every NLP of the toolkit (the fit, the stride fit, the designs).
+
+The NLP's rows are the multiple-shooting constraints and the caller's rows (sparse, each
+depending on a few unknowns: CasADi colours their Jacobian into a few dozen sweeps) plus an
+optional stability row, which depends on every node. Left to CasADi, that one dense row would
+force one forward sweep per unknown, so the NLP is handed to IPOPT with its own
+constraint-Jacobian function (nlpsol's ``jac_g``): CasADi's sparse Jacobian of the other rows
+stacked on the stability row's exact gradient from its own reverse sweep
+(:mod:`pdw_casadi.nlp.stability`).
+
+- :func:`nlp_functions`: the (x, p) -> (f, g) function and the assembled Jacobian;
+- :func:`ipopt_settings`: IPOPT's options from the caller's settings, in one place;
+- :func:`succeeded`: the one success test of an IPOPT return status;
+- :class:`Progress`: the iteration callback that logs one :class:`Iterate` per iteration.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from pdw_casadi.engine.callback import NumericFunction
+from pdw_casadi.nlp.stability import StabilityRow
+
+#: IPOPT return statuses that count as a solved NLP
+SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+
+def succeeded(status: str) -> bool:
+    """Whether an IPOPT return status is a solved NLP."""
+    return status in SUCCESS_STATUSES
+
+
+def ipopt_settings(hessian: str, max_iter: int, tol: float, extra: dict | None = None,
+                   log_file: str | None = None) -> dict:
+    """IPOPT's options: ``hessian`` ("limited-memory" or "exact"), ``max_iter``, ``tol``
+    (acceptable: 100 tol over 10 iterations), adaptive barrier, silent; ``log_file``: IPOPT's
+    own log (print level 5, appended); ``extra`` overrides any of them."""
+    ipopt = {"hessian_approximation": hessian, "max_iter": max_iter,
+             "tol": tol, "acceptable_tol": 100 * tol, "acceptable_iter": 10,
+             "print_level": 0, "sb": "yes", "mu_strategy": "adaptive"}
+    if log_file:
+        ipopt.update({"output_file": str(log_file), "file_print_level": 5,
+                      "file_append": "yes"})
+    ipopt.update(extra or {})
+    return ipopt
+
+
+@dataclass
+class Iterate:
+    """One IPOPT iteration as the progress line shows it (R^2 from the NLP's error rows)."""
+
+    iteration: int
+    objective: float
+    infeasibility: float
+    r2: dict
+    spectral_bound: float
+    elapsed_s: float
+
+    def line(self) -> str:
+        r2 = "  ".join(f"{k} {v:.4f}" for k, v in self.r2.items())
+        rho = "" if np.isnan(self.spectral_bound) else f"  rho32 {self.spectral_bound:.4f}"
+        return (f"iter {self.iteration:4d}  objective {self.objective:.5f}  "
+                f"inf {self.infeasibility:.1e}  {r2}{rho}  {self.elapsed_s:6.1f} s")
+
+
+def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int):
+    """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT."""
+    P = ca.MX.sym("p", 0, 1)
+    dense = ca.Sparsity.dense
+    jac_base = ca.Function("fit_jac_base", [x], [ca.jacobian(g_base, x)])
+    g, J = g_base, jac_base(x)
+    if row is not None:
+        n = x.shape[0]
+
+        def gradient(a):
+            return [ca.DM(row.gradient(np.asarray(a[0]).ravel()[:n_w])).T]
+
+        grad = NumericFunction("stability_gradient", [dense(n, 1)], [dense(1, n_w)], gradient)
+        # the row's own Jacobian serves CasADi's derived functions (the Lagrangian gradient
+        # at the answer); IPOPT's constraint Jacobian comes from ``jac_g`` below
+        value = NumericFunction(
+            "stability_row", [dense(n, 1)], [dense(1, 1)],
+            lambda a: [row.value(np.asarray(a[0]).ravel()[:n_w])],
+            lambda name: NumericFunction(
+                name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
+                lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
+        g = ca.vertcat(g_base, value(x))
+        J = ca.vertcat(J, ca.horzcat(grad(x), ca.MX(1, n - n_w)))
+        keep = (grad, value)  # CasADi does not hold Python callbacks alive
+    else:
+        keep = ()
+    nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
+    jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, J], ["x", "p"], ["g", "jac_g_x"])
+    return nlp, jac_g, keep
+
+
+class Progress(ca.Callback):
+    """IPOPT iteration callback: one :class:`Iterate` per iteration to ``log``."""
+
+    def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log):
+        ca.Callback.__init__(self)
+        self.n, self.m = n, m
+        self.lbg, self.ubg, self.lbx, self.ubx = lbg, ubg, lbx, ubx
+        self.r2_of, self.has_row, self.log = r2_of, has_row, log
+        self.t0 = time.perf_counter()
+        self.iter = 0
+        self.history: list[Iterate] = []
+        self.construct("pdw_fit_progress", {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.n)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.m)
+        if n == "f":
+            return ca.Sparsity.dense(1)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        d = dict(zip(ca.nlpsol_out(), arg, strict=False))
+        x, g = np.asarray(d["x"]).ravel(), np.asarray(d["g"]).ravel()
+        inf = max(float(np.max(self.lbg - g, initial=0)), float(np.max(g - self.ubg, initial=0)),
+                  float(np.max(self.lbx - x, initial=0)), float(np.max(x - self.ubx, initial=0)))
+        it = Iterate(self.iter, float(d["f"]), inf, self.r2_of(x),
+                     float(g[-1]) if self.has_row else float("nan"),
+                     time.perf_counter() - self.t0)
+        self.history.append(it)
+        self.iter += 1
+        if self.log is not None:
+            self.log(it.line())
+        return [0]

@@ -1,0 +1,186 @@
+"""Run a fit and write its report: summary.json, curves.csv, fit.png, limit_cycle.png, table.md.
+
+Beside the fit, references are computed with the same curve code on the same data: the
+problem file's own compliance (for the 6-link walker the paper's Table 3) re-run on this
+walker, and, when the walker's family names one (``COMPARISON_PROBLEM``, see
+:mod:`pdw_casadi.model.faces`), its comparison walker: for the 6-link walker the paper's [48]
+(point feet, knees locked in stance) with this anthropometry
+(``problems/comparison_kneed_6link.toml``). Other walkers have no comparison row.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from pdw_casadi.engine.jsonio import write_json
+from pdw_casadi.fit import (
+    Candidate,
+    FitOptions,
+    FitResult,
+    check_targets,
+    fit_gait,
+    mean_score,
+    reference_gait,
+)
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import fixed_point_timing, human_timing, timing_table
+from pdw_casadi.model.faces import walker_faces
+from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import hybrid_system
+from pdw_casadi.model.units import summary_units
+from pdw_casadi.report.plots import plot_fit, plot_limit_cycle
+
+
+def _scores(d: dict) -> dict:
+    return {k: d[k] for k in ("r2_knee", "r2_hip", "r2_thigh") if k in d}
+
+
+def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
+    """The best stable valid candidate, else the best candidate at all (flagged)."""
+    if res.best is not None:
+        return res.best, True
+    if not res.candidates:
+        return None, False
+    return max(res.candidates, key=lambda c: mean_score(c, res.targets)), False
+
+
+def _table(rows: list[tuple[str, dict]]) -> str:
+    lines = ["| gait | knee R^2 | hip R^2 | thigh R^2 | spectral radius | stable |",
+             "|---|---|---|---|---|---|"]
+
+    def f(v, fmt="{:.3f}"):
+        return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
+            else fmt.format(v)
+
+    for name, d in rows:
+        stable = d.get("stable")
+        lines.append(f"| {name} | {f(d.get('r2_knee'))} | {f(d.get('r2_hip'))} | "
+                     f"{f(d.get('r2_thigh'))} | {f(d.get('spectral_radius'), '{:.4f}')} | "
+                     f"{'-' if stable is None else ('yes' if stable else 'no')} |")
+    return "\n".join(lines) + "\n"
+
+
+def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1,
+                   log=print, scheduler: str | None = None) -> dict:
+    """Fit, compare with the references, write the report files into ``out``; the summary."""
+    out = Path(out)
+    check_targets(problem, human, opts or FitOptions())  # before the reference solves
+    log("reference: the problem's own compliance on the same data")
+    table3 = reference_gait(problem, human)
+    faces = walker_faces(problem)
+    comparison_name = faces.comparison_problem
+    paper = dict(faces.paper_reported) if faces.paper_reported else None
+    comparison = None
+    if comparison_name is not None:
+        log(f"reference: the comparison walker {comparison_name}")
+        comparison = reference_gait(load_problem(comparison_name), human)
+    res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
+    cand, ok = _pick(res)
+    h = human.resample(101)
+    curves = pd.DataFrame({"cycle_pct": h.cycle_pct, "human_knee_deg": h.knee_deg,
+                           "human_hip_deg": h.hip_deg})
+    if h.thigh_deg is not None:
+        curves["human_thigh_deg"] = h.thigh_deg
+    for joint in ("knee", "hip", "thigh"):  # the human SD, as fit.png draws it
+        if getattr(h, f"{joint}_sd_deg", None) is not None:
+            curves[f"human_{joint}_sd_deg"] = getattr(h, f"{joint}_sd_deg")
+    models, scores = {}, {}
+    for label, d in (("fit", {"curves": cand.curves} if cand else {}),
+                     ("table3", table3), ("comparison", comparison or {})):
+        c = d.get("curves")
+        if c is None:
+            continue
+        for col in ("knee_deg", "hip_deg", "thigh_deg"):
+            curves[f"{label}_{col}"] = c[col].to_numpy()
+    curves.to_csv(out / "curves.csv", index=False)
+    names = {"fit": "this fit", "table3": f"{problem.name}, problem file's compliance",
+             "comparison": f"comparison walker ({comparison_name})"}
+    if cand is not None:
+        models[names["fit"]] = cand.curves
+        scores[names["fit"]] = cand.scores
+    for key, d in (("table3", table3), ("comparison", comparison or {})):
+        if d.get("curves") is not None:
+            models[names[key]] = d["curves"]
+            scores[names[key]] = _scores(d)
+    fit_timing = None
+    if cand is not None:
+        fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
+    norms, norms_source = human_timing(human)
+    markers = {"human toe off": norms["toe_off_pct"]}
+    if fit_timing is not None:
+        markers.update({f"fit {k}": v for k, v in fit_timing.markers().items()})
+    plot_fit(h, models, out / "fit.png", scores=scores, markers=markers)
+
+    summary: dict = {"gait_file": str(human.source), "problem": problem.name,
+                     "targets": list(res.targets), "paper_reported": paper,
+                     "stable": False, "valid": False}
+    comp = {"table3": {**_scores(table3), "spectral_radius": table3["spectral_radius"],
+                       "stable": table3["stable"], "valid": table3["valid"]},
+            "comparison_walker": None if comparison is None else {
+                **_scores(comparison), "spectral_radius": comparison["spectral_radius"],
+                "stable": comparison["stable"], "problem": comparison_name}}
+    summary["comparison"] = comp
+    solver = {"solves": [s.to_dict() for s in res.solves],
+              "status": res.solves[-1].status if res.solves else None,
+              "iterations": int(sum(s.iterations for s in res.solves)),
+              "wall_time_s": res.wall_time_s, "starts": res.starts_frame().to_dict("records"),
+              "notes": res.notes}
+    summary["solver"] = solver
+    if cand is not None:
+        fp = cand.fixed_point
+        compliance, slope = problem.split_parameters(cand.parameters)
+        summary.update(cand.scores)
+        summary.update({
+            "compliance": compliance, "slope": slope,
+            "fixed_point": dict(zip(fp.state_names, map(float, cand.state), strict=True)),
+            "eigenvalues": [[float(e.real), float(e.imag)] for e in fp.eigenvalues],
+            "spectral_radius": fp.spectral_radius, "stable": bool(fp.stable),
+            "stability_margin": 1.0 - fp.spectral_radius, "max_radius": opts.max_radius,
+            "valid": bool(cand.valid), "failure": fp.failure, "margins": fp.margins,
+            "step_time_s": fp.step_time_s, "step_length_m": fp.step_length_m,
+            "speed_m_s": fp.step_length_m / fp.step_time_s,
+            "resimulation_deviation": cand.resimulation_deviation,
+            "resimulation_steps": opts.resim_steps, "accepted": ok,
+            "timing": None if fit_timing is None else fit_timing.to_dict()})
+        sim = Simulator(problem)
+        two = sim.run(cand.state, cand.parameters, steps=2, record=True)
+        plot_limit_cycle(two.trajectory, out / "limit_cycle.png", faces=faces,
+                         title=f"{problem.name}, fitted compliance: one leg over two steps")
+    rows = [("paper, reported (its own four subjects)", paper)] if paper else []
+    rows.append(("problem file's compliance, re-run here",
+                 {**_scores(table3), "spectral_radius": table3["spectral_radius"],
+                  "stable": table3["stable"]}))
+    if cand is not None:
+        rows.append(("this fit", {**cand.scores,
+                                  "spectral_radius": cand.fixed_point.spectral_radius,
+                                  "stable": cand.fixed_point.stable}))
+    if comparison is not None:
+        rows.append((f"comparison walker ({comparison_name})",
+                     {**_scores(comparison), "spectral_radius": comparison["spectral_radius"],
+                      "stable": comparison["stable"]}))
+    head = (f"# Fit of {problem.name} to {Path(str(human.source)).name}\n\n"
+            f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, "
+            f"docs/model.md of pdw-casadi).\n\n")
+    summary["timing_human"] = {"values": norms, "source": norms_source}
+    timings = {"this fit": fit_timing, "problem file's compliance": table3.get("timing")}
+    if comparison is not None:
+        timings["comparison walker"] = comparison.get("timing")
+    (out / "table.md").write_text(head + _table(rows) + "\n## Gait timing\n\n"
+                                  + timing_table(timings, human))
+    if cand is None:
+        summary["headline"] = "no fit: " + "; ".join(res.notes or ["every start failed"])
+    else:
+        verdict = "stable, valid" if ok else "NOT ACCEPTED (unstable or invalid)"
+        summary["headline"] = (
+            f"r2_knee = {cand.scores['r2_knee']:.3f}  r2_hip = {cand.scores['r2_hip']:.3f}"
+            + (f"  r2_thigh = {cand.scores['r2_thigh']:.3f}" if "r2_thigh" in cand.scores
+               else "")
+            + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
+            f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
+            f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
+    summary["units"] = summary_units(summary, hybrid_system(problem))
+    write_json(out / "summary.json", summary)
+    return summary

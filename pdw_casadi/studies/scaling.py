@@ -1,0 +1,332 @@
+"""Walkers scaled to a subject: anthropometry from mass, height and sex.
+
+Body-segment parameters come from the adjusted Zatsiorsky-Seluyanov table of
+
+    P. de Leva, "Adjustments to Zatsiorsky-Seluyanov's segment inertia parameters",
+    J. Biomech. 29(9):1223-1230, 1996, Table 4 (female and male columns):
+
+segment length (mm, at the table's reference stature), mass (% body mass), centre of mass
+(% of the length from the proximal end: thigh from the hip joint centre, shank from the knee
+joint centre, foot from the heel) and sagittal radius of gyration (% of the length). The
+paper's own body (Table 1, an average 60 kg female from the Handbook of Human Motion) is the
+*reference*: its compliance, gait and numerics are carried over.
+
+The walker's foot is a rigid flat sole 0.15 m long with the ankle on the sole line, a model
+choice and not the anatomical heel-to-toe length (0.228 m in the table): the foot geometry
+and inertia are therefore scaled from Table 1 (lengths by the height ratio, inertia with the
+foot mass), and only the foot mass comes from the table. The hip mass is the rest of the body
+(head, arms, trunk lumped at the hip).
+
+Dimensional analysis gives the exact law used as the start: with lengths x s, masses x m and
+g fixed, the walker's gait is the same in dimensionless form: angles equal, rates x 1/sqrt(s),
+times x sqrt(s) (also the integrator step, so the *discrete* map scales exactly), inertias x
+m s^2, stiffness x m s, damping x m s^1.5, eigenvalues unchanged. A subject whose
+proportions differ from Table 1 is then reached by continuation in the body (anthropometry
+is a runtime parameter of the per-leg walker, :func:`pdw_casadi.model.system.per_leg_system`, so no
+recompilation).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pdw_casadi.model.problem import Problem, ProblemError, load_problem
+
+#: de Leva (1996), Table 4: reference stature (m), body mass (kg) and per segment
+#: (length m, mass fraction, COM fraction from the proximal end, sagittal radius of
+#: gyration fraction)
+DE_LEVA_1996 = {
+    "female": {"stature_m": 1.735, "mass_kg": 61.99,
+               "thigh": (0.3685, 0.1478, 0.3612, 0.369),
+               "shank": (0.4323, 0.0481, 0.4416, 0.271),
+               "foot": (0.2283, 0.0129, 0.4014, 0.299)},
+    "male": {"stature_m": 1.741, "mass_kg": 73.00,
+             "thigh": (0.4222, 0.1416, 0.4095, 0.329),
+             "shank": (0.4340, 0.0433, 0.4459, 0.255),
+             "foot": (0.2581, 0.0137, 0.4415, 0.257)},
+}
+SEXES = tuple(DE_LEVA_1996)
+
+#: compliance keys by physical dimension (the others are angles: unchanged by scaling)
+_STIFFNESS = ("k_ankle", "k_knee")
+_DAMPING = ("c_ankle", "c_knee_flex", "c_knee_ext", "c_knee_stance")
+_LENGTHS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh")
+_MASSES = ("m_h", "m_t", "m_s", "m_f")
+_INERTIAS = ("J_t", "J_s", "J_f")
+_RATES = ("dq1", "dq2", "dq3")
+#: compliance values adapted on the way to a subject's body (the angles stay)
+ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
+
+
+def reference_height(problem: Problem, sex: str = "female") -> float:
+    """The stature (m) the reference body stands for: the one at which the table's leg
+    (thigh + shank) equals the problem's l_t + l_s (Table 1 gives no stature)."""
+    t = DE_LEVA_1996[sex]
+    leg = (t["thigh"][0] + t["shank"][0]) / t["stature_m"]
+    return (problem.anthropometry["l_t"] + problem.anthropometry["l_s"]) / leg
+
+
+def reference_mass(problem: Problem) -> float:
+    """Total body mass (kg) of a walker problem: hip + two legs."""
+    a = problem.anthropometry
+    return a["m_h"] + 2 * (a["m_t"] + a["m_s"] + a["m_f"])
+
+
+def subject_anthropometry(mass_kg: float, height_m: float, sex: str = "female",
+                          reference: Problem | None = None) -> dict[str, float]:
+    """The 6-link walker's anthropometry (m, kg, kg m^2) for a subject, from de Leva (1996)
+    for thigh and shank (length, mass, COM, inertia) and the foot mass; foot geometry and
+    inertia from the reference body (Table 1) scaled to the subject (see module docstring)."""
+    if sex not in DE_LEVA_1996:
+        raise ProblemError(f"sex must be one of {', '.join(SEXES)}, got {sex!r}")
+    if not (20.0 <= mass_kg <= 200.0 and 1.2 <= height_m <= 2.2):
+        raise ProblemError(f"subject mass {mass_kg} kg / height {height_m} m outside the "
+                           f"adult range of the table (20-200 kg, 1.2-2.2 m)")
+    ref = reference or load_problem("humanlike_6link")
+    r = ref.anthropometry
+    t = DE_LEVA_1996[sex]
+    k = height_m / t["stature_m"]
+    out: dict[str, float] = {}
+    for seg, (L, mf, cm, rg) in (("t", t["thigh"]), ("s", t["shank"])):
+        length = L * k
+        mass = mf * mass_kg
+        out[f"l_{seg}"] = length
+        out[f"m_{seg}"] = mass
+        # COM measured from the distal joint in the walker (thigh: from the knee; shank:
+        # from the ankle); the table measures from the proximal end
+        out[f"l_{seg}c"] = (1.0 - cm) * length
+        out[f"J_{seg}"] = mass * (rg * length) ** 2
+    s = height_m / reference_height(ref, sex)
+    out["m_f"] = t["foot"][1] * mass_kg
+    for key in ("l_f", "l_fc", "l_ft", "l_fh"):
+        out[key] = r[key] * s
+    out["J_f"] = r["J_f"] * (out["m_f"] / r["m_f"]) * s**2
+    out["m_h"] = mass_kg - 2 * (out["m_t"] + out["m_s"] + out["m_f"])
+    return {key: out[key] for key in r}
+
+
+def scale_problem(problem: Problem, s: float, m: float, name: str | None = None) -> Problem:
+    """``problem`` under the uniform scaling law: lengths x s, masses x m (g fixed).
+
+    The initial state and the numerics scale with it (rates x 1/sqrt(s), the integrator
+    step and the phase time limit x sqrt(s)), so a fixed point of ``problem`` maps onto a
+    fixed point of the result exactly, with the same eigenvalues.
+    """
+    if not (s > 0 and m > 0):
+        raise ProblemError(f"scale factors must be positive, got s = {s}, m = {m}")
+    rt = math.sqrt(s)
+    law = {**{k: s for k in _LENGTHS}, **{k: m for k in _MASSES},
+           **{k: m * s**2 for k in _INERTIAS}, **{k: m * s for k in _STIFFNESS},
+           **{k: m * s**1.5 for k in _DAMPING}}
+
+    def scaled(values):
+        return {k: v * law.get(k, 1.0) for k, v in values.items()}
+
+    legs = {side: {sec: scaled(vals) for sec, vals in d.items()}
+            for side, d in problem.legs.items()}
+    bounds = {k: (lo * law.get(k, 1.0), hi * law.get(k, 1.0))
+              for k, (lo, hi) in problem.compliance_bounds.items()}
+    state = {k: v / rt if k in _RATES else v for k, v in problem.initial_state.items()}
+    numerics = {k: v * rt for k, v in problem.numerics.items()}
+    validity = dict(problem.validity)
+    validity["min_normal_force"] = validity.get("min_normal_force", 0.0) * m
+    for k in ("min_clearance", "min_cop_margin"):
+        validity[k] = validity.get(k, 0.0) * s
+    return problem.replace(name=name or f"{problem.name}_scaled",
+                           anthropometry=scaled(problem.anthropometry),
+                           compliance=scaled(problem.compliance), compliance_bounds=bounds,
+                           legs=legs, initial_state=state, numerics=numerics,
+                           validity=validity)
+
+
+def scaled_state(problem: Problem, x, s: float) -> np.ndarray:
+    """A section state of ``problem``'s 6-link walker under the scaling law (rates (rad/s)
+    x 1/sqrt(s), angles unchanged)."""
+    x = np.asarray(x, float).copy()
+    names = list(problem.state_names)
+    x[[names.index(k) for k in _RATES]] /= math.sqrt(s)
+    return x
+
+
+@dataclass
+class SubjectResult:
+    """A subject's walker: the problem (with the fixed point as its initial state), the
+    fixed point, the continuation path [(lambda, state, theta)] (lambda 0 = the uniformly
+    scaled reference, 1 = the subject), the wall time (s), whether lambda = 1 was
+    reached, the validity margins held on the way (key -> (lambda, held value)) and the
+    label of the reference gait it started from."""
+
+    problem: Problem
+    fixed_point: object
+    path: list = field(default_factory=list)
+    wall_time_s: float = 0.0
+    reached: bool = False
+    held: dict = field(default_factory=dict)
+    start: str = "own"
+
+
+def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
+                       reference: Problem | None = None, x_ref=None,
+                       adapt: Sequence[str] | None = ADAPTED,
+                       options=None, hold_first_phase: bool = True) -> SubjectResult:
+    """The reference walker moved onto a subject's body, with its periodic gait.
+
+    1. The reference gait (``x_ref``, else the fixed point near the problem's state) is
+       carried exactly to the uniformly scaled body (s = height / reference height, m =
+       mass / reference mass), compliance scaled by the law.
+    2. The body then moves linearly from that one (lambda = 0) to the subject's de Leva body
+       (lambda = 1) by continuation (:func:`pdw_casadi.gait.design.continue_design`): at every
+       step the fixed point is solved together with the least relative change of the
+       ``adapt`` compliance values (both legs alike). The paper's gait is so sensitive to
+       the body that at fixed compliance it is lost within a thousandth of that path; the
+       compliance is what "adapts the walker to a weight and leg length". ``adapt=None``
+       keeps the compliance fixed (plain Newton continuation). ``options``: the solver's
+       :class:`~pdw_casadi.gait.design.DesignOptions` (tolerance, continuation steps; by
+       default validity margins that would break are held, ``hold_margins``: a longer
+       shank leaves the swing toe less clearance). ``hold_first_phase``: hold the
+       duration of the walker's first phase at its start value (the 6-link gait's phase I
+       lasts a few ms; where it vanishes the trailing toe never lifts and the gait is
+       lost).
+    """
+    from pdw_casadi.gait.design import DesignOptions, continue_design, phase_time_conditions
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+    from pdw_casadi.gait.poincare import PoincareMap
+    from pdw_casadi.gait.stride import (
+        per_leg_system,
+        physical_parameter_names,
+        physical_parameter_vector,
+        with_physical_parameters,
+    )
+
+    t0 = time.perf_counter()
+    opts = options or DesignOptions(hold_margins=True)
+    tol = opts.tol
+    ref = reference or load_problem("humanlike_6link")
+    if ref.asymmetric:
+        raise ProblemError(f"{ref.name}: the reference body must be symmetric")
+    if x_ref is None:
+        fp0 = find_fixed_point(ref, tol=tol)
+        if not fp0.converged:
+            raise ProblemError(f"{ref.name}: no fixed point near its initial state")
+        x_ref = fp0.state
+    s = height_m / reference_height(ref, sex)
+    m = mass_kg / reference_mass(ref)
+    uni = scale_problem(ref, s, m, name=f"subject_{sex}_{mass_kg:g}kg_{height_m:g}m")
+    target = uni.replace(anthropometry=subject_anthropometry(mass_kg, height_m, sex, ref))
+    hs = per_leg_system(uni)
+    names = list(physical_parameter_names(uni))
+    theta0, theta1 = physical_parameter_vector(uni), physical_parameter_vector(target)
+    pmap = PoincareMap(uni, hs)  # symmetric body: the step map of the per-leg walker
+    free = [[names.index(f"{side}.{k}") for side in ("left", "right")] for k in (adapt or ())]
+    x_uni = scaled_state(ref, x_ref, s)
+    extra = None
+    if hold_first_phase:
+        first = pmap.evaluate(x_uni, theta0)
+        phase = hs.phase_names[0]
+        extra = phase_time_conditions(None, phase, first.phase_times[phase][0],
+                                      first.step_time)
+    run = continue_design(pmap, x_uni, theta0, theta1, free, extra, opts)
+    last = run.last
+    body = with_physical_parameters(uni, last.theta)
+    body = body.replace(initial_state=dict(zip(uni.initial_state, last.state, strict=True)))
+    fp = find_fixed_point(body, x0=last.state, p=last.theta, tol=tol, fallback=False,
+                          pmap=PoincareMap(body, hs))
+    return SubjectResult(body, fp, [(lam, st.copy(), th.copy()) for lam, st, th in run.path],
+                         time.perf_counter() - t0, run.reached and fp.converged and fp.valid,
+                         run.held)
+
+
+def reference_gaits(reference: Problem) -> list[tuple[str, Problem]]:
+    """The reference walker's gaits a subject's walker may start from: its own, then the
+    stable gaits of its bundled atlas (:mod:`pdw_casadi.fit.starts`), most stable first,
+    as (label, problem at that gait's compliance and state)."""
+    from pdw_casadi.fit.starts import load_atlas
+
+    entries = sorted(load_atlas(reference), key=lambda e: e.spectral_radius)
+    return [("own", reference)] + [
+        (e.label, reference.with_parameters(e.parameters).with_state(e.state))
+        for e in entries]
+
+
+def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
+                   reference: Problem | None = None, log=None) -> SubjectResult:
+    """:func:`walker_for_subject` from each of :func:`reference_gaits` in turn until one
+    reaches the subject's body with a valid gait; else the attempt that got furthest.
+    ``log``: called with a line per attempt."""
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+
+    ref = reference or load_problem("humanlike_6link")
+    best = None
+    t0 = time.perf_counter()
+    for label, start in reference_gaits(ref):
+        fp0 = find_fixed_point(start)
+        if not (fp0.converged and fp0.valid):
+            continue
+        res = walker_for_subject(mass_kg, height_m, sex, start, fp0.state)
+        res.start = label
+        if log is not None:
+            log(f"from the {label} gait: lambda {res.path[-1][0]:.4f}"
+                f"{' (reached)' if res.reached else ''}, {res.wall_time_s:.1f} s")
+        if best is None or res.path[-1][0] > best.path[-1][0] or res.reached:
+            best = res
+        if res.reached:
+            break
+    if best is None:
+        raise ProblemError(f"{ref.name}: no valid reference gait to start from")
+    best.wall_time_s = time.perf_counter() - t0
+    return best
+
+
+def problem_toml(problem: Problem, header: str = "") -> str:
+    """A problem as TOML text (the layout :func:`pdw_casadi.model.problem.load_problem` reads)."""
+    def table(name, values, units=None):
+        lines = [f"[{name}]"]
+        for k, v in values.items():
+            if isinstance(v, tuple | list):
+                lines.append(f"{k} = [{float(v[0])!r}, {float(v[1])!r}]")
+            else:
+                lines.append(f"{k} = {float(v)!r}")
+        return "\n".join(lines) + "\n"
+
+    parts = [header] if header else []
+    parts.append(f'[walker]\nfamily = "{problem.family}"\ntitle = "{problem.title}"\n')
+    parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
+    parts.append(table("anthropometry", problem.anthropometry))
+    for side, d in problem.legs.items():
+        if d.get("anthropometry"):
+            parts.append(table(f"anthropometry.{side}", d["anthropometry"]))
+    parts.append(table("compliance", problem.compliance))
+    for side, d in problem.legs.items():
+        if d.get("compliance"):
+            parts.append(table(f"compliance.{side}", d["compliance"]))
+    if problem.compliance_bounds:
+        parts.append(table("compliance_bounds", problem.compliance_bounds))
+    parts.append(table("initial_state", problem.initial_state))
+    parts.append(table("numerics", problem.numerics))
+    parts.append(table("validity", problem.validity))
+    return "\n".join(parts)
+
+
+SUBJECTS_FILE = "anthropometry/subjects.csv"
+
+
+def subject_row(subject_id: str) -> dict:
+    """Mass (kg), height (m) and sex of a bundled subject (data/anthropometry/subjects.csv,
+    WBDS metadata)."""
+    import pandas as pd
+
+    from pdw_casadi.engine.resources import bundled_dir
+
+    table = pd.read_csv(bundled_dir("data") / SUBJECTS_FILE)
+    row = table[table["subject_id"] == subject_id]
+    if row.empty:
+        raise ProblemError(f"unknown subject {subject_id!r}; known: "
+                           f"{', '.join(table['subject_id'])}")
+    r = row.iloc[0]
+    sex = {"F": "female", "M": "male"}.get(str(r["sex"]), str(r["sex"]))
+    return {"mass_kg": float(r["mass_kg"]), "height_m": float(r["height_m"]), "sex": sex}
