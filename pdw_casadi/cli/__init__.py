@@ -27,6 +27,7 @@ import sys
 from collections.abc import Callable, Sequence
 
 from pdw_casadi.cli.atlas import atlas_main
+from pdw_casadi.cli.cohort import cohort_main
 from pdw_casadi.cli.common import common_parser, load_cli_problem
 from pdw_casadi.cli.contract import USER_ERRORS, fail
 from pdw_casadi.cli.design import design_main
@@ -36,7 +37,8 @@ from pdw_casadi.cli.scale import scale_main
 from pdw_casadi.cli.simulate import simulate_main
 from pdw_casadi.cli.sweep import sweep_main
 
-__all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
+__all__ = ["COMMANDS", "USER_ERRORS", "cohort_main", "common_parser", "fit_main",
+           "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main",
            "scale_main", "design_main", "atlas_main"]
 
@@ -50,6 +52,7 @@ COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "scale": scale_main,
     "design": design_main,
     "atlas": atlas_main,
+    "cohort": cohort_main,
 }
 
 
