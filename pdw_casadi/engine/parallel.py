@@ -52,6 +52,8 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
     An exception raised by a task is re-raised here, when its result is reached.
     """
     items = list(items)
+    if not items:
+        return
     if scheduler is not None:
         yield from _dask_map(fn, items, scheduler, ordered)
     elif workers > 1 and len(items) > 1:
@@ -81,7 +83,7 @@ def _dask_map(fn, items, scheduler: str, ordered: bool = True):
         # pure=False: identical items are still separate tasks (no result sharing surprises)
         futures = client.map(fn, items, pure=False)
         try:
-            for fut in (futures if ordered else as_completed(futures)):
+            for fut in (futures if ordered else as_completed(futures, loop=client.loop)):
                 yield fut.result()
         finally:  # the consumer stopped (Ctrl-C, an error): the cluster drops the rest
             client.cancel(futures)

@@ -32,7 +32,8 @@ R^2 per curve (``r2_knee``, ``r2_hip``, ``r2_thigh``; a per-side fit also per le
 gait's timing (``step_time_s``, ``step_length_m``, ``speed_m_s``, ``stance_pct``,
 ``double_support_pct``); ``spectral_radius`` (per step; a stride's per-step equivalent, the
 square root of ``stride_spectral_radius``); solver ``iterations`` and ``solver_status``;
-``wall_time_s`` (the fit's own, in its worker).
+``wall_time_s`` and ``cpu_time_s`` (the fit's own, in its worker: on shared cores the
+CPU time is what the fit cost, the wall time what it waited).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ import math
 import os
 import re
 import time
+import tomllib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -64,6 +66,7 @@ from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
 from pdw_casadi.model.problem import Problem, load_problem, problem_from_dict
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
+from pdw_casadi.studies.scaling import problem_toml
 
 #: kinds of fit: "symmetric" (one-step fit, one set of compliance) and "sides" (per-leg
 #: fit on the stride); a study selects with "auto" (each file as its header says),
@@ -78,7 +81,7 @@ STATUSES = ("accepted", "rejected", "failed")
 ID_COLUMNS = ("fit_id", "subject_id", "condition", "kind", "side", "body", "mass_kg",
               "height_m", "sex", "human_speed_m_s", "gait_file")
 #: columns that measure the run, not the fit: they differ between runs of the same study
-RUN_COLUMNS = ("wall_time_s",)
+RUN_COLUMNS = ("wall_time_s", "cpu_time_s")
 #: the study table's columns (``file`` required; the others optional)
 TABLE_COLUMNS = ("file", "subject_id", "condition", "mass_kg", "height_m", "sex",
                  "speed_m_s")
@@ -423,7 +426,9 @@ def run_body_task(task: BodyTask) -> dict:
                    wall_time_s=time.perf_counter() - t0)
         return rec
     rec.update(res.record())
-    rec["problem"] = res.problem.to_dict() if res.problem is not None else None
+    rec["problem"] = None if res.problem is None else problem_toml(
+        res.problem, f"# the walker of subject {task.subject_id} ({task.mass_kg:g} kg, "
+        f"{task.height_m:g} m, {task.sex}), written by pdw-cohort\n")
     rec["wall_time_s"] = time.perf_counter() - t0
     return rec
 
@@ -531,7 +536,7 @@ def run_fit_task(task: FitTask) -> dict:
     """Run one fit and return its record: ``row`` (the table row), ``curves`` (the fitted
     gait cycle, or None), ``fingerprint``. Never raises for a fit that fails: the row says
     ``failed`` and why (Ctrl-C and a killed process still stop it)."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     e = task.entry
     row = _id_row(e, task.body)
     if e.kind == "sides":
@@ -552,6 +557,7 @@ def run_fit_task(task: FitTask) -> dict:
     except Exception as exc:  # a failed fit is a row with its reason, not a lost study
         row.update(status="failed", reason=_reason(exc))
     row["wall_time_s"] = time.perf_counter() - t0
+    row["cpu_time_s"] = time.process_time() - c0
     return {"fit_id": e.fit_id, "fingerprint": task.fingerprint, "row": jsonable(row),
             "curves": None if curves is None else jsonable(
                 {c: curves[c].to_numpy() for c in curves.columns})}
@@ -594,6 +600,12 @@ def load_complete(path: Path, fingerprint: str) -> dict | None:
     if rec.get("has_curves") and not (Path(path).parent / CURVES_FILE).is_file():
         return None
     return rec
+
+
+def body_problem(rec: dict) -> Problem:
+    """The walker of a body record (its ``problem``: the problem file's TOML text)."""
+    name = f"subject_{safe_name(rec['subject_id'])}"
+    return problem_from_dict(tomllib.loads(rec["problem"]), name=name)
 
 
 def _body_path(out: Path, subject_id: str) -> Path:
@@ -716,6 +728,9 @@ def run_bodies(plan: CohortPlan, out: Path, workers: int = 1, scheduler: str | N
             progress("body-skip", sid, rec)
     for rec in map_tasks(run_body_task, todo, workers=workers, scheduler=scheduler,
                          ordered=False):
+        if rec.get("problem"):  # the walker as a problem file (pdw-fit --problem FILE)
+            write_atomic(_body_path(out, rec["subject_id"]).with_suffix(".toml"),
+                         rec["problem"])
         write_atomic(_body_path(out, rec["subject_id"]),
                      json.dumps(jsonable(rec), indent=1, allow_nan=False) + "\n")
         records[rec["subject_id"]] = rec
@@ -741,7 +756,7 @@ def fit_tasks(plan: CohortPlan, bodies: dict[str, dict]) -> tuple[list[FitTask],
                     row["side"] = plan.options.fit.side
                 blocked[e.fit_id] = jsonable(row)
                 continue
-            problem = problem_from_dict(rec["problem"], name=rec["problem"]["name"])
+            problem = body_problem(rec)
         fp = fit_fingerprint(e, problem, plan.options.fit, body)
         tasks.append(FitTask(e, problem, plan.options.fit, body, fp))
     return tasks, blocked
@@ -803,7 +818,7 @@ TAIL_ORDER = ("slope_rad", "spectral_radius", "stride_spectral_radius", "stable"
               "resimulation_deviation", "step_time_s", "step_length_m", "speed_m_s",
               "stance_pct", "double_support_pct", "step_length_asymmetry_pct",
               "step_time_asymmetry_pct", "solver_status", "iterations", "solves",
-              "wall_time_s")
+              "wall_time_s", "cpu_time_s")
 
 
 def tidy(table: pd.DataFrame) -> pd.DataFrame:
