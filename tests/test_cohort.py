@@ -4,7 +4,6 @@ command's contract."""
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -273,7 +272,9 @@ def test_an_output_path_that_is_a_file_is_refused(tmp_path, capsys):
 
 
 # -- real fits: pool, Dask, killed and resumed (small configuration) -------------------------
-FILES = [str(SUBJECTS / f"WBDS{n}_fast.csv") for n in ("09", "10", "20")]
+#: two subjects: in SMALL, WBDS09's fit is accepted, WBDS20's stops at its iteration limit
+#: (a failed row, which must come out the same way too)
+FILES = [str(SUBJECTS / f"WBDS{n}_fast.csv") for n in ("09", "20")]
 
 
 def _cli(tmp_path, name, *extra):
@@ -290,10 +291,10 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
     code, out, err = run(capsys, cohort_main, _cli(tmp_path, "pool", "--workers", "2"))
     assert code in (0, 1) and "error" not in err, err
     pool = _table(tmp_path / "pool")
-    assert len(pool) == 3 and set(pool["status"]) <= {"accepted", "rejected", "failed"}
+    assert len(pool) == 2 and set(pool["status"]) <= {"accepted", "rejected", "failed"}
     assert (pool["status"] == "accepted").any() and pool["r2_hip"].notna().any()
     assert pool.loc[pool["status"] != "accepted", "reason"].str.len().gt(0).all()
-    assert "3 fits:" in out
+    assert "2 fits:" in out
     # the same fits on a Dask LocalCluster, given by its address
     with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1,
                                   dashboard_address=None) as cluster:
@@ -315,67 +316,11 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
     finally:
         proc.send_signal(signal.SIGKILL)
         proc.communicate()
-    done = sorted(p.parent.name for p in killed.glob("fits/*/result.json"))
-    assert 1 <= len(done) < 3 and not (killed / "cohort.csv").exists()
+    done = {p.parent.name: p.read_bytes() for p in killed.glob("fits/*/result.json")}
+    assert len(done) == 1 and not (killed / "cohort.csv").exists()
     code, out, err = run(capsys, cohort_main, _cli(tmp_path, "killed", "--workers", "1"))
     assert code in (0, 1) and "error" not in err, err
-    assert f"({len(done)} complete from an earlier run)" in out
-    for name in done:  # the fits done before the kill were not run again
-        rec = json.loads((killed / "fits" / name / "result.json").read_text())
-        assert rec["row"]["fit_id"] == name
+    assert "(1 complete from an earlier run)" in out
+    for name, saved in done.items():  # the fit done before the kill was not run again
+        assert (killed / "fits" / name / "result.json").read_bytes() == saved
     pd.testing.assert_frame_equal(pool, _table(killed), check_exact=True)
-
-
-# -- each subject on their own body: the bookkeeping (bodies faked, fast) --------------------
-def fake_body(task) -> dict:
-    """A stand-in for the subject's walker: the reference under the exact uniform scaling
-    law (no continuation, no solve); WBDS10 has none."""
-    from pdw_casadi.studies.scaling import reference_mass, scale_problem
-
-    with open(os.environ[CALLS], "a") as fh:
-        fh.write(f"body:{task.subject_id}\n")
-    rec = {"subject_id": task.subject_id, "fingerprint": task.fingerprint(),
-           "wall_time_s": 0.0}
-    if task.subject_id == "WBDS10":
-        return {**rec, "status": "failed", "reason": "no stable valid gait (test)"}
-    from pdw_casadi.studies.scaling import problem_toml
-
-    pb = scale_problem(task.reference, 1.0, task.mass_kg / reference_mass(task.reference),
-                       name=f"body_{task.subject_id}")
-    return {**rec, "status": "accepted", "problem": problem_toml(pb), "spectral_radius": 0.8}
-
-
-def body_mass_fit(task: FitTask) -> dict:
-    """A fake fit whose row records the walker's mass (kg) it was given."""
-    from pdw_casadi.studies.scaling import reference_mass
-
-    rec = fake_fit(task)
-    rec["row"]["walker_mass_kg"] = reference_mass(task.problem)
-    return rec
-
-
-def test_own_bodies_are_built_once_per_subject_and_a_failed_body_is_a_row(
-        fake_plan, tmp_path, monkeypatch):
-    import pdw_casadi.studies.cohort as cohort
-
-    _, calls = fake_plan
-    monkeypatch.setattr(cohort, "run_body_task", fake_body)
-    entries, _ = read_study([str(SUBJECTS)], "auto", read_bodies(BODIES))
-    plan = plan_cohort(entries, CohortOptions(body="own",
-                                              fit=StrideFitOptions(verbose=False)))
-    assert sorted(plan.bodies) == ["WBDS09", "WBDS10", "WBDS18", "WBDS20"]
-    table = run_cohort(plan, tmp_path / "out", fit_fn=body_mass_fit)
-    assert sorted(c for c in _calls(calls) if c.startswith("body:")) == [
-        "body:WBDS09", "body:WBDS10", "body:WBDS18", "body:WBDS20"]  # one per subject
-    assert (table["body"] == "own").all()
-    ten = table[table["subject_id"] == "WBDS10"]
-    assert len(ten) == 2 and (ten["status"] == "failed").all()
-    assert ten["reason"].str.contains("the subject's body: no stable valid gait").all()
-    others = table[table["subject_id"] != "WBDS10"].set_index("fit_id")
-    masses = read_bodies(BODIES)
-    for fit_id, row in others.iterrows():
-        assert abs(row["walker_mass_kg"] - masses[row["subject_id"]]["mass_kg"]) < 1e-9, fit_id
-    n = len(_calls(calls))
-    again = run_cohort(plan, tmp_path / "out", fit_fn=body_mass_fit)
-    assert len(_calls(calls)) == n  # bodies and fits complete: nothing re-run
-    pd.testing.assert_frame_equal(table, again, check_exact=True)

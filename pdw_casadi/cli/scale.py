@@ -27,7 +27,6 @@ from pdw_casadi.studies.scaling import (
     subject_row,
 )
 
-
 #: the default largest spectral radius of the de Leva body's gait
 STABLE_RADIUS = inspect.signature(stable_subject_walker).parameters["max_radius"].default
 
