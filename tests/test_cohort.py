@@ -302,20 +302,29 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
                              _cli(tmp_path, "dask", "--scheduler", cluster.scheduler_address))
     assert code in (0, 1) and "error" not in err, err
     pd.testing.assert_frame_equal(pool, _table(tmp_path / "dask"), check_exact=True)
-    # a run killed (SIGKILL: no chance to clean up) after its first fit, then resumed
+    # a run stopped by Ctrl-C during its second fit (most likely inside IPOPT, which turns
+    # Ctrl-C into a failed solve: that fit must not be saved as a failed result), resumed
     killed = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "pdw_casadi.cli", "cohort",
                              *_cli(tmp_path, "killed", "--workers", "1")],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 600
         while not list(killed.glob("fits/*/result.json")):
             assert proc.poll() is None, proc.communicate()
             assert time.monotonic() < deadline
             time.sleep(0.2)
+        time.sleep(1.0)  # into the second fit
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=600)
     finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.communicate()
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 130, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("interrupted: ") and "1 of 2 fits complete" in last, err
     done = {p.parent.name: p.read_bytes() for p in killed.glob("fits/*/result.json")}
     assert len(done) == 1 and not (killed / "cohort.csv").exists()
     code, out, err = run(capsys, cohort_main, _cli(tmp_path, "killed", "--workers", "1"))

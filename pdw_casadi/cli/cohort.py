@@ -54,6 +54,9 @@ class Bar:
 
     def _note(self) -> None:
         n = self.done + self.skipped
+        fits = self.outputs.dir / "fits"
+        if n and fits not in self.outputs.written:
+            self.outputs.wrote(fits)
         note = (f"{n} of {self.total} fits complete in {self.outputs.dir / 'fits'}; run the "
                 f"same command again to resume the rest")
         self.outputs.notes[:] = [note]

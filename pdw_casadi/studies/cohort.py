@@ -46,6 +46,8 @@ import json
 import math
 import os
 import re
+import signal
+import threading
 import time
 import tomllib
 from collections.abc import Callable, Iterable, Sequence
@@ -409,6 +411,32 @@ def fit_fingerprint(entry: StudyEntry, problem: Problem, opts: FitOptions, body:
                     "options": options, "body": body, "version": __version__})
 
 
+@contextlib.contextmanager
+def interrupts_noted():
+    """Note a Ctrl-C (SIGINT) that arrives inside the block; yields a function that says
+    whether one did. IPOPT under CasADi turns a Ctrl-C into a failed solve
+    (``NonIpopt_Exception_Thrown``) instead of an exception, so without this an interrupted
+    fit would come back as a complete "failed" result and a resumed run would skip it. The
+    handler still calls the one it replaces (Python's raises KeyboardInterrupt). Where
+    Ctrl-C is ignored (the pool's workers: the parent stops them) or off the main thread (a
+    Dask worker's task) nothing is installed."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield lambda: False
+        return
+    hit: list[bool] = []
+
+    def handler(signum, frame):
+        hit.append(True)
+        previous(signum, frame)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield lambda: bool(hit)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def run_body_task(task: BodyTask) -> dict:
     """The subject's walker with a stable gait, as a JSON-ready record (``problem``: the
     problem as a dict, with the gait as its initial state; ``status`` "accepted" or
@@ -418,12 +446,16 @@ def run_body_task(task: BodyTask) -> dict:
     t0 = time.perf_counter()
     rec = {"subject_id": task.subject_id, "fingerprint": task.fingerprint(),
            "mass_kg": task.mass_kg, "height_m": task.height_m, "sex": task.sex}
-    try:
-        res = stable_subject_walker(task.mass_kg, task.height_m, task.sex, task.reference,
-                                    max_radius=task.max_radius)
-    except Exception as exc:  # a failed body is a row with its reason, not a lost study
-        rec.update(status="failed", reason=_reason(exc),
-                   wall_time_s=time.perf_counter() - t0)
+    with interrupts_noted() as interrupted:
+        try:
+            res = stable_subject_walker(task.mass_kg, task.height_m, task.sex,
+                                        task.reference, max_radius=task.max_radius)
+        except Exception as exc:  # a failed body is a row with its reason, not a lost study
+            res = exc
+    if interrupted():  # never saved as this subject's outcome: the next run redoes it
+        raise KeyboardInterrupt
+    if isinstance(res, Exception):
+        rec.update(status="failed", reason=_reason(res), wall_time_s=time.perf_counter() - t0)
         return rec
     rec.update(res.record())
     rec["problem"] = None if res.problem is None else problem_toml(
@@ -541,7 +573,24 @@ def run_fit_task(task: FitTask) -> dict:
     row = _id_row(e, task.body)
     if e.kind == "sides":
         row["side"] = task.options.side
-    curves = None
+    with interrupts_noted() as interrupted:
+        fit_row, curves, error = _fit_entry(task)
+    if interrupted():  # an interrupted fit is never saved: the next run redoes it
+        raise KeyboardInterrupt
+    if error is not None:
+        row.update(status="failed", reason=error)
+    else:
+        row.update(fit_row)
+    row["wall_time_s"] = time.perf_counter() - t0
+    row["cpu_time_s"] = time.process_time() - c0
+    return {"fit_id": e.fit_id, "fingerprint": task.fingerprint, "row": jsonable(row),
+            "curves": None if curves is None else jsonable(
+                {c: curves[c].to_numpy() for c in curves.columns})}
+
+
+def _fit_entry(task: FitTask):
+    """(row of the fit's results, its curves, None) or (None, None, the reason it failed)."""
+    e = task.entry
     try:
         human = load_gait_file(e.gait_file)
         if e.kind == "sides":
@@ -553,14 +602,9 @@ def run_fit_task(task: FitTask) -> dict:
                 human = human.mean()
             fit_row, curves = _fit_rows_symmetric(task.problem, human,
                                                   symmetric_options(task.options))
-        row.update(fit_row)
     except Exception as exc:  # a failed fit is a row with its reason, not a lost study
-        row.update(status="failed", reason=_reason(exc))
-    row["wall_time_s"] = time.perf_counter() - t0
-    row["cpu_time_s"] = time.process_time() - c0
-    return {"fit_id": e.fit_id, "fingerprint": task.fingerprint, "row": jsonable(row),
-            "curves": None if curves is None else jsonable(
-                {c: curves[c].to_numpy() for c in curves.columns})}
+        return None, None, _reason(exc)
+    return fit_row, curves, None
 
 
 # -- saving and resuming -------------------------------------------------------------------
