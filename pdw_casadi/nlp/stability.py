@@ -196,7 +196,7 @@ def _named(f: ca.Function) -> dict[str, ca.Function]:
 
 class StabilityRow:
     """rho_q of the NLP step's Poincare Jacobian as a function of the NLP unknowns ``w``
-    (see the module docstring): :meth:`value`, :meth:`gradient` (exact), :meth:`jacobian`.
+    (see the module docstring): :meth:`value`, :meth:`gradient` (exact), :meth:`poincare_jacobian`.
 
     ``nlp`` is a :class:`~pdw_casadi.nlp.shooting.ShootingNLP`; all its segments must use the
     same number of RK4 steps per interval. The last forward sweep is cached, so the gradient
