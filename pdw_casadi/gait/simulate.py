@@ -509,7 +509,8 @@ class Simulator:
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
         """Smallest value of each validity margin of a phase (contact forces in N, CoP
-        margins and clearances in m), over the samples its :class:`~pdw_casadi.model.margins.Margin` counts."""
+        margins and clearances in m), over the samples its
+        :class:`~pdw_casadi.model.margins.Margin` counts."""
         if rec is None:
             return
         specs = self.hs.phase_margins[phase]
