@@ -42,7 +42,7 @@ def _module_of(obj: griffe.Object) -> griffe.Module:
     return obj if obj.is_module else obj.module
 
 
-def resolve(obj: griffe.Object, target: str) -> str | None:
+def resolve(obj: griffe.Object, target: str, package: str = PACKAGE) -> str | None:
     """The canonical dotted path that ``target`` names in the scope of ``obj``, or None."""
     target = target.strip().rstrip("()")
     if target.startswith("."):
@@ -53,7 +53,7 @@ def resolve(obj: griffe.Object, target: str) -> str | None:
         dots = len(target) - len(target.lstrip("."))
         base = base[: len(base) - (dots - 1)] if dots > 1 else base
         return _lookup(obj, ".".join([*base, target.lstrip(".")]))
-    if target.split(".")[0] == PACKAGE:
+    if target.split(".")[0] == package:
         return _lookup(obj, target)
     head, _, rest = target.partition(".")
     scope: griffe.Object | None = obj
@@ -63,36 +63,38 @@ def resolve(obj: griffe.Object, target: str) -> str | None:
             return _lookup(obj, full)
         if head in getattr(scope, "imports", {}):
             full = scope.imports[head] + (f".{rest}" if rest else "")
-            return _lookup(obj, full) if full.startswith(PACKAGE) else None
+            return _lookup(obj, full) if full.split(".")[0] == package else None
         scope = scope.parent
     return None
 
 
-def _external(obj: griffe.Object, target: str) -> bool:
+def _external(obj: griffe.Object, target: str, package: str = PACKAGE) -> bool:
     """A role that names something outside the package (numpy, argparse, ...)."""
     target = target.strip()
     if target.startswith("."):
         return False
     head = target.split(".")[0]
-    if head == PACKAGE:
+    if head == package:
         return False
     module = _module_of(obj)
     imported = getattr(module, "imports", {}).get(head)
     if imported is not None:
-        return not imported.startswith(PACKAGE)
+        return imported.split(".")[0] != package
     return "." in target and head not in module.members
 
 
-def convert(obj: griffe.Object, text: str) -> str:
+def convert(obj: griffe.Object, text: str, package: str = PACKAGE) -> str:
+    """``text`` (a docstring of ``obj``) with its roles as cross-references."""
+
     def link(m: re.Match) -> str:
         short, target = m.group(2), m.group(3)
         shown = target.strip().split(".")[-1] if short else target.strip().lstrip(".")
-        if _private(target.lstrip(".")) or _external(obj, target):
+        if _private(target.lstrip(".")) or _external(obj, target, package):
             return f"`{shown}`"
-        path = resolve(obj, target)
+        path = resolve(obj, target, package)
         if path is None:
             LOG.warning("%s: docstring names %r, which is not in %s", obj.path, target,
-                        PACKAGE)
+                        package)
             return f"`{shown}`"
         if _private(path):
             return f"`{shown}`"
@@ -103,17 +105,23 @@ def convert(obj: griffe.Object, text: str) -> str:
 
 
 class RolesToLinks(griffe.Extension):
-    """Rewrite every docstring of the package once it is loaded."""
+    """Rewrite every docstring of the package once it is loaded (``package``: whose names
+    the roles may use; other packages are left alone)."""
+
+    def __init__(self, package: str = PACKAGE) -> None:
+        super().__init__()
+        self.package = package
 
     def on_package(self, *, pkg: griffe.Module, **kwargs) -> None:
-        self._walk(pkg, set())
+        if pkg.name == self.package:
+            self._walk(pkg, set())
 
     def _walk(self, obj: griffe.Object, seen: set[str]) -> None:
         if obj.path in seen:
             return
         seen.add(obj.path)
         if obj.docstring is not None:
-            obj.docstring.value = convert(obj, obj.docstring.value)
+            obj.docstring.value = convert(obj, obj.docstring.value, self.package)
         for member in obj.members.values():
             if not member.is_alias:
                 self._walk(member, seen)
