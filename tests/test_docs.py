@@ -37,7 +37,8 @@ def _doc_texts():
 def test_site_builds_strictly(tmp_path):
     """``mkdocs build --strict``: a warning (a broken link or anchor, a page missing from the
     nav, a docstring role naming nothing, a command without its page) fails the build."""
-    for module in ("mkdocs", "mkdocstrings", "mkdocstrings_handlers.python", "material"):
+    for module in ("mkdocs", "mkdocstrings", "mkdocstrings_handlers.python", "material",
+                   "griffe_sphinx"):
         pytest.importorskip(module, reason="the docs extra is not installed")
     site = tmp_path / "site"
     env = dict(os.environ, NO_MKDOCS_2_WARNING="1")
