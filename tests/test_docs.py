@@ -161,3 +161,39 @@ def test_a_docstring_role_naming_nothing_is_an_error(tmp_path):
     assert "`symmetric_design`" in text and "`numpy.ndarray`" in text and "`_private`" in text
     assert ":func:" not in text and ":class:" not in text
     assert "[`design`][docs_fixture_pkg.gait.design]" in package["gait"].docstring.value
+
+
+PATH_REF = re.compile(r"(?<![\w./-])((?:pdw_casadi|scripts|tests|data|problems|notebooks|docs)"
+                      r"/[\w./-]*[\w/])(?![\w{<*])")
+#: paths that a source citation names in another repository (data/README.md)
+CITED_ELSEWHERE = {"data/h2a_comfspeed_43subs.csv"}
+NAME_REF = re.compile(r"(?<![\w./])(pdw_casadi(?:\.\w+)+)")
+
+
+def test_paths_and_names_in_the_docs_exist():
+    """Every repository path (``pdw_casadi/gait/stride.py``, ``scripts/bench_fit.py``,
+    ``data/designs/...``) and every dotted name (``pdw_casadi.gait.sweep.sweep``) the
+    documentation mentions exists: a reorganisation cannot leave the docs behind."""
+    import importlib
+
+    bad = []
+    for path, text in _doc_texts():
+        for ref in sorted(set(PATH_REF.findall(text))):
+            if "xx" in ref or ref in CITED_ELSEWHERE:
+                continue  # a pattern (WBDSxx), or a file of another repository
+            if not (ROOT / ref).exists():
+                bad.append(f"{path.relative_to(ROOT)}: {ref}")
+        for ref in sorted(set(NAME_REF.findall(text))):
+            parts = ref.split(".")
+            for i in range(len(parts), 0, -1):  # the longest importable module
+                try:
+                    obj = importlib.import_module(".".join(parts[:i]))
+                except ImportError:
+                    continue
+                try:
+                    for attr in parts[i:]:
+                        obj = getattr(obj, attr)
+                except AttributeError:
+                    bad.append(f"{path.relative_to(ROOT)}: {ref}")
+                break
+    assert not bad, bad
