@@ -53,10 +53,9 @@ class StrideFitOptions(FitOptions):
     both sides first, then repeated twice) or "atlas" (the atlas or problem gait that fits
     that mean best, as the step fit picks it, repeated twice; no extra solve). "fit" is the
     default: the meaningful comparison (what per-leg compliance adds to the best symmetric
-    fit), and the better answer where both were measured (the documentation's results page
-    "Per-leg fits"). ``max_radius`` stays the per-step value:
-    the stride's verdict is ``max_radius``^2, its NLP bound (``max_radius`` -
-    ``radius_margin``)^2.
+    fit), and the better answer where both were measured (``docs/results/per-leg-fit.md``).
+    ``max_radius`` stays the per-step value: the stride's verdict is ``max_radius``^2, its
+    NLP bound (``max_radius`` - ``radius_margin``)^2.
     """
 
     side: str = "both"

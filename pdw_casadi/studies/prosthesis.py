@@ -28,9 +28,8 @@ asymmetry).
 The design keeps the gait pattern (event order) of the gait it starts from. How far each
 variant gets (the sound leg fixed or adapting, the mass distribution and the slope free, a
 symmetry tolerance), what caps it and the shipped designs
-(``data/designs/humanlike_6link_prosthesis{29,30}.toml``) are measured in the documentation's
-results page "Prosthesis design" (``docs/results/prosthesis.md``), each with its
-``pdw-design`` command.
+(``data/designs/humanlike_6link_prosthesis{29,30}.toml``) are measured in
+``docs/results/prosthesis.md``, each with its ``pdw-design`` command.
 """
 
 from __future__ import annotations
@@ -64,7 +63,7 @@ from pdw_casadi.model.problem import Problem, ProblemError
 #: the prosthetic leg's compliance left free by default (the angles stay)
 FREE = ("k_ankle", "c_ankle", "k_knee", "c_knee_flex", "c_knee_ext", "c_knee_stance")
 #: the prosthetic leg's compliance the NLP design leaves free by default: all eight (the
-#: knee-spring angles too: results page "Prosthesis design", "Homotopy settings, measured")
+#: knee-spring angles too: docs/results/prosthesis.md, "Homotopy settings, measured")
 NLP_FREE = FREE + ("theta_eq", "theta_dis")
 #: the body values of a lighter shank and foot
 LIGHTER_KEYS = ("m_s", "J_s", "m_f", "J_f")
@@ -208,8 +207,7 @@ class DesignNLPOptions:
     :class:`~pdw_casadi.fit.FitOptions`.
 
     How the defaults were chosen (measured first steps, tolerances, floors and freedoms):
-    the documentation's results page "Prosthesis design", section "Homotopy settings,
-    measured".
+    ``docs/results/prosthesis.md``, "Homotopy settings, measured".
     """
 
     first_step: float = 0.003
