@@ -197,3 +197,15 @@ def test_paths_and_names_in_the_docs_exist():
                     bad.append(f"{path.relative_to(ROOT)}: {ref}")
                 break
     assert not bad, bad
+
+
+def test_docs_pages_named_in_the_code_exist():
+    """The docstrings and comments point to results pages (``docs/results/prosthesis.md``):
+    those pages exist."""
+    bad = []
+    for path in sorted([*(ROOT / "pdw_casadi").rglob("*.py"), *(ROOT / "problems").glob("*"),
+                        *(ROOT / "tests").glob("*.py"), *(ROOT / "scripts").glob("*.py")]):
+        for ref in set(re.findall(r"(?<![\w./-])(docs/[\w./-]*\.md)", path.read_text())):
+            if not (ROOT / ref).is_file():
+                bad.append(f"{path.relative_to(ROOT)}: {ref}")
+    assert not bad, bad
