@@ -75,8 +75,8 @@ class Bar:
         status = rec["row"].get("status")
         if event == "skip":
             self.skipped += 1
-            if self.bar is not None:
-                self.bar.initial = self.bar.n = self.skipped
+            if self.bar is not None:  # counted, but not in the rate behind the time left
+                self.bar.initial = self.bar.n = self.bar.last_print_n = self.skipped
         else:
             self.done += 1
             if self.bar is not None:
