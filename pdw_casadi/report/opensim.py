@@ -1,0 +1,651 @@
+"""Gaits as OpenSim files: a planar model (``.osim``), its motion (``.mot``), the ground
+reaction forces (``.sto``) and an ``ExternalLoads`` XML that applies them.
+
+The model (docs/opensim.md):
+
+- OpenSim's ground frame is the toolkit's world frame: x downhill-horizontal, y up, z out of
+  the plane (to the walker's right), gravity (0, -g, 0); the slope is the orientation of the
+  ground's ``slope`` frame (rotated -slope about z, its x axis along the walking surface).
+- The root is the ``pelvis``, a body at the hip carrying the lumped upper body ``m_h`` (a
+  point mass: no inertia), jointed to ground by a planar joint (``pelvis_tilt``,
+  ``pelvis_tx``, ``pelvis_ty``); the motion holds ``pelvis_tilt`` at 0, so each hip angle is
+  the thigh's angle from the vertical. Each side has ``thigh_l``, ``shank_l`` and (6-link
+  walker) ``foot_l`` bodies (compass gait: one ``leg_l``) on pin joints ``hip_l``, ``knee_l``,
+  ``ankle_l`` with the coordinates ``hip_flexion_l`` (thigh ahead > 0), ``knee_angle_l``
+  (shank relative to thigh, flexion < 0, as in OpenSim's gait models) and ``ankle_angle_l``
+  (foot relative to the perpendicular of the shank, dorsiflexion > 0). Every body frame has
+  its origin at its proximal joint and its -y axis along the link (the foot: x from heel to
+  toe), so its z rotation is the toolkit's absolute angle (the foot's minus pi/2).
+- Legs are roles in the toolkit (leg 1 in stance at the start of a step); the export follows
+  physical legs: leg 1 of the first step is the left leg, as in the stride map
+  (:mod:`pdw_casadi.stride`), so the left leg is leg 1 in even steps and leg 2 in odd ones.
+  Per-leg parameters (``[anthropometry.right]``) give each side its own bodies.
+- The toolkit puts the stance toe back at the origin after every step; the export adds the
+  distance walked, so that the motion continues down the slope.
+
+The ground reaction forces are the contact multipliers of the toolkit's phases (N): a point
+contact's force acts at the point, a flat foot's couple moves its centre of pressure along
+the sole. In a planar model every contact wrench is a force through a point of the ground
+line, so the free moments are zero up to rounding (they are written as computed). Impacts
+are instantaneous impulses (N s), which a force table cannot hold: at an impact time the
+table keeps the forces after it. Times are strictly increasing (OpenSim splines the
+columns): of two samples at one time (an event), the later one is kept, whose coordinates
+are the same (positions are continuous at impacts).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.sax.saxutils import escape
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ProblemError
+from ..hybrid import HybridSystem
+
+__all__ = ["OpenSimExport", "read_back", "WalkerSkeleton", "export_gait", "export_opensim",
+           "joint_torques", "read_storage", "skeleton"]
+
+SIDES = ("l", "r")
+#: the physical side of leg 1 (the stance leg at the section) in step k: left in even steps
+ROLE_SIDES = {0: ("l", "r"), 1: ("r", "l")}
+#: digits written per number: doubles round-trip through text (positions to 1e-9 m need
+#: about 12; 17 keep them exact)
+DIGITS = 17
+MOTION_HEADER_NOTE = ("Units are S.I. units (second, meters, Newtons, ...)\n"
+                      "If the header above contains a line with 'inDegrees', this indicates "
+                      "whether rotational values are in degrees (yes) or radians (no).\n")
+
+
+def _d(a):
+    """Unit vector (sin a, -cos a) of a link at absolute angle a (rad), see docs/model.md."""
+    return ca.vertcat(ca.sin(a), -ca.cos(a))
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One body of a leg below the hip: its OpenSim names, the toolkit coordinates of its
+    absolute angle in leg 1 and leg 2, and its geometry (m, kg, kg m^2) in its own frame."""
+
+    body: str
+    joint: str
+    coordinate: str
+    angles: tuple[str, str]
+    length: float  # m, proximal joint to the next joint (foot: ankle to toe)
+    mass: float
+    inertia: float
+    com: tuple[float, float]  # m, in the body frame
+    #: rad, body frame angle minus the toolkit angle (the foot's x axis points heel -> toe)
+    frame_offset: float = 0.0
+    #: markers (name without side, position in the body frame, m)
+    markers: tuple[tuple[str, tuple[float, float]], ...] = ()
+
+
+@dataclass(frozen=True)
+class WalkerSkeleton:
+    """The OpenSim view of one walker: the pelvis mass, each side's segments (hip down),
+    the body that touches the ground, and the toolkit point -> marker names."""
+
+    family: str
+    m_h: float
+    legs: dict[str, tuple[Segment, ...]]
+    contact_body: str  # without side
+    slope: float
+    g: float
+
+    def coordinate_names(self) -> list[str]:
+        names = ["pelvis_tilt", "pelvis_tx", "pelvis_ty"]
+        for s in SIDES:
+            names += [f"{seg.coordinate}_{s}" for seg in self.legs[s]]
+        return names
+
+    def rotational(self) -> list[bool]:
+        return [n not in ("pelvis_tx", "pelvis_ty") for n in self.coordinate_names()]
+
+    def marker_names(self) -> list[str]:
+        names = ["hip"]
+        for s in SIDES:
+            names += [f"{m}_{s}" for seg in self.legs[s] for m, _ in seg.markers]
+        return names
+
+
+def _six_link_leg(a: dict, role: int) -> tuple[Segment, ...]:
+    thigh, shank, foot = (("q2", "q3"), ("q1", "q4"), ("qf1", "qf2"))
+    return (
+        Segment("thigh", "hip", "hip_flexion", thigh, a["l_t"], a["m_t"], a["J_t"],
+                (0.0, -(a["l_t"] - a["l_tc"])), markers=(("knee", (0.0, -a["l_t"])),)),
+        Segment("shank", "knee", "knee_angle", shank, a["l_s"], a["m_s"], a["J_s"],
+                (0.0, -(a["l_s"] - a["l_sc"])), markers=(("ankle", (0.0, -a["l_s"])),)),
+        Segment("foot", "ankle", "ankle_angle", foot, a["l_ft"], a["m_f"], a["J_f"],
+                (a["l_fc"], 0.0), frame_offset=-math.pi / 2,
+                markers=(("heel", (-a["l_fh"], 0.0)), ("toe", (a["l_ft"], 0.0)))),
+    )
+
+
+def _kneed_leg(a: dict, role: int) -> tuple[Segment, ...]:
+    l_t, l_s = a["a2"] + a["b2"], a["a1"] + a["b1"]
+    return (
+        Segment("thigh", "hip", "hip_flexion", ("q2", "q3"), l_t, a["m_t"], a["J_t"],
+                (0.0, -a["b2"]), markers=(("knee", (0.0, -l_t)),)),
+        Segment("shank", "knee", "knee_angle", ("q1", "q4"), l_s, a["m_s"], a["J_s"],
+                (0.0, -a["b1"]), markers=(("foot", (0.0, -l_s)),)),
+    )
+
+
+def _compass_leg(a: dict, role: int) -> tuple[Segment, ...]:
+    leg = a["a"] + a["b"]
+    return (Segment("leg", "hip", "hip_flexion", ("q_st", "q_sw"), leg, a["m"], 0.0,
+                    (0.0, -a["b"]), markers=(("foot", (0.0, -leg)),)),)
+
+
+#: the toolkit's coordinate names -> (leg builder, contact body, the anthropometry key of
+#: the hip mass)
+_FAMILIES = {
+    ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1"): (_six_link_leg, "foot"),
+    ("q1", "q2", "q3", "q4", "x_foot", "y_foot"): (_kneed_leg, "shank"),
+    ("q_st", "q_sw", "x_foot", "y_foot"): (_compass_leg, "leg"),
+}
+
+
+def skeleton(problem, hs: HybridSystem) -> WalkerSkeleton:
+    """The OpenSim skeleton of ``problem``'s walker (per-leg anthropometry included)."""
+    key = tuple(hs.model.q_names)
+    if key not in _FAMILIES:
+        raise ProblemError(f"{problem.name} ({problem.family}): no OpenSim export for a "
+                           f"walker with coordinates {', '.join(key)}")
+    if any(n.split("@")[0] in ("r_toe", "r_heel") for n in hs.model.parameter_names):
+        raise ProblemError(f"{problem.name} ({problem.family}): rolling feet are not "
+                           f"exported to OpenSim (their contact point moves on the arcs)")
+    build, contact = _FAMILIES[key]
+    sides = {"l": "left", "r": "right"}
+    legs = {s: build(problem.leg_values(sides[s])[1], 1) for s in SIDES}
+    m_h = problem.anthropometry["m_h"]
+    return WalkerSkeleton(problem.family, m_h, legs, contact, problem.slope, problem.g)
+
+
+# --------------------------------------------------------------------------------------
+# the model (OpenSim 4 XML, written as text: the export needs no OpenSim installation)
+# --------------------------------------------------------------------------------------
+def _v(*xs: float) -> str:
+    return " ".join(_fmt(x) for x in xs)
+
+
+def _offset_frame(name: str, parent: str, translation=(0.0, 0.0, 0.0), rz: float = 0.0,
+                  geometry: str = "") -> str:
+    geo = f"<attached_geometry>{geometry}</attached_geometry>" if geometry else ""
+    return (f'<PhysicalOffsetFrame name="{name}">{geo}<socket_parent>{parent}</socket_parent>'
+            f"<translation>{_v(*translation)}</translation>"
+            f"<orientation>{_v(0, 0, rz)}</orientation></PhysicalOffsetFrame>")
+
+
+def _coordinate(name: str, rotational: bool) -> str:
+    lim = math.pi if rotational else 1000.0
+    return (f'<Coordinate name="{name}"><default_value>0</default_value>'
+            f"<range>{_v(-lim, lim)}</range><clamped>false</clamped>"
+            f"<locked>false</locked></Coordinate>")
+
+
+def _joint(kind: str, name: str, parent: str, child: str, parent_at: tuple[float, float],
+           coords: list[tuple[str, bool]]) -> str:
+    """A joint with its own offset frames: on the parent at ``parent_at`` (m, parent
+    frame), on the child at its origin; both unrotated."""
+    pf, cf = f"{parent.rsplit('/', 1)[-1]}_offset", f"{child.rsplit('/', 1)[-1]}_offset"
+    return (f'<{kind} name="{name}"><socket_parent_frame>{pf}</socket_parent_frame>'
+            f"<socket_child_frame>{cf}</socket_child_frame><coordinates>"
+            + "".join(_coordinate(n, r) for n, r in coords)
+            + "</coordinates><frames>"
+            + _offset_frame(pf, parent, (*parent_at, 0.0)) + _offset_frame(cf, child)
+            + f"</frames></{kind}>")
+
+
+def _body(name: str, mass: float, com: tuple[float, float], inertia: tuple[float, float,
+          float], components: str = "", geometry: str = "") -> str:
+    comp = f"<components>{components}</components>" if components else ""
+    geo = f"<attached_geometry>{geometry}</attached_geometry>" if geometry else ""
+    return (f'<Body name="{name}">{comp}{geo}<mass>{_fmt(mass)}</mass>'
+            f"<mass_center>{_v(*com, 0)}</mass_center>"
+            f"<inertia>{_v(*inertia, 0, 0, 0)}</inertia></Body>")
+
+
+def model_xml(sk: WalkerSkeleton, name: str, credits: str = "") -> str:
+    """The ``.osim`` document of a skeleton: bodies (kg, m, kg m^2), joints, coordinates,
+    markers at the toolkit's points, the slope frame and display geometry."""
+    bodies = [_body("pelvis", sk.m_h, (0.0, 0.0), (0.0, 0.0, 0.0),
+                    geometry='<Sphere name="pelvis_geometry"><radius>0.06</radius></Sphere>')]
+    joints = [_joint("PlanarJoint", "ground_pelvis", "/ground", "/bodyset/pelvis",
+                     (0.0, 0.0), [("pelvis_tilt", True), ("pelvis_tx", False),
+                                  ("pelvis_ty", False)])]
+    markers = [("hip", "pelvis", (0.0, 0.0))]
+    for s in SIDES:
+        parent, parent_end = "/bodyset/pelvis", (0.0, 0.0)
+        for seg in sk.legs[s]:
+            J = seg.inertia
+            foot = bool(seg.frame_offset)
+            # planar: only Izz enters the dynamics; Ixx, Iyy of a slender link (thigh,
+            # shank along y, foot along x) keep the tensor physical (triangle inequality)
+            inertia = (0.0, J, J) if foot else (J, 0.0, J)
+            half = 0.5 * seg.length
+            cyl = (f'<Cylinder name="{seg.body}_{s}_geometry"><radius>0.015</radius>'
+                   f"<half_height>{_fmt(half)}</half_height></Cylinder>")
+            # a cylinder's axis is its frame's y axis: along the link (the foot: along x)
+            frame = _offset_frame(f"{seg.body}_{s}_display", "..",
+                                  (half, 0.0, 0.0) if foot else (0.0, -half, 0.0),
+                                  math.pi / 2 if foot else 0.0, cyl)
+            body = f"/bodyset/{seg.body}_{s}"
+            bodies.append(_body(f"{seg.body}_{s}", seg.mass, seg.com, inertia, frame))
+            joints.append(_joint("PinJoint", f"{seg.joint}_{s}", parent, body, parent_end,
+                                 [(f"{seg.coordinate}_{s}", True)]))
+            markers += [(f"{m}_{s}", f"{seg.body}_{s}", at) for m, at in seg.markers]
+            parent, parent_end = body, (0.0, -seg.length)
+    slope_geo = ('<Brick name="slope_geometry"><half_lengths>3 0.002 0.3</half_lengths>'
+                 "</Brick>")
+    mk = "".join(f'<Marker name="{n}"><socket_parent_frame>/bodyset/{b}'
+                 f"</socket_parent_frame><location>{_v(*at, 0)}</location><fixed>true</fixed>"
+                 f"</Marker>" for n, b, at in markers)
+    body_xml = "\n".join(bodies)
+    joint_xml = "\n".join(joints)
+    return f"""<?xml version="1.0" encoding="UTF-8" ?>
+<OpenSimDocument Version="40000">
+<Model name="{escape(name)}">
+<credits>{escape(credits)}</credits>
+<Ground name="ground"><components>{_offset_frame("slope", "..", rz=-sk.slope,
+                                                  geometry=slope_geo)}</components></Ground>
+<gravity>{_v(0, -sk.g, 0)}</gravity>
+<length_units>meters</length_units>
+<force_units>N</force_units>
+<BodySet name="bodyset"><objects>
+{body_xml}
+</objects><groups /></BodySet>
+<JointSet name="jointset"><objects>
+{joint_xml}
+</objects><groups /></JointSet>
+<MarkerSet name="markerset"><objects>{mk}</objects><groups /></MarkerSet>
+</Model>
+</OpenSimDocument>
+"""
+
+
+# --------------------------------------------------------------------------------------
+# coordinates, forces and torques of the toolkit's samples
+# --------------------------------------------------------------------------------------
+class _Maps:
+    """CasADi maps between the toolkit state and the OpenSim coordinates of a skeleton, for
+    leg 1 on side ``ROLE_SIDES[parity][0]``."""
+
+    def __init__(self, sk: WalkerSkeleton, hs: HybridSystem, parity: int):
+        model = hs.model
+        q, qd, p, m = model.system.q, model.system.qd, model.p, model.m
+        self.hs, self.sk = hs, sk
+        names = list(model.q_names)
+        iq = {n: i for i, n in enumerate(names)}
+        side_of_role = ROLE_SIDES[parity]
+        coords = sk.coordinate_names()
+        u = [None] * len(coords)
+        hip = model.points["hip"]
+        u[0], u[1], u[2] = ca.SX(0), hip[0], hip[1]
+        for role, s in enumerate(side_of_role):
+            prev = ca.SX(0)  # the pelvis frame's angle (the motion holds it at 0)
+            for seg in sk.legs[s]:
+                ang = q[iq[seg.angles[role]]] + seg.frame_offset
+                u[coords.index(f"{seg.coordinate}_{s}")] = ang - prev
+                prev = ang
+        u = ca.vertcat(*u)
+        A = ca.jacobian(u, q)
+        ud = ca.mtimes(A, qd)
+        qdd = ca.SX.sym("qdd", q.shape[0])
+        udd = ca.mtimes(A, qdd) + ca.jtimes(ud, q, qd)
+        x = hs.x_sym
+        nq = hs.nq
+        subs = hs.subs_x
+        self.u = ca.Function("u", [x, p, qdd], [subs(u), subs(ud), subs(udd)])
+        # q(u): the toolkit coordinates from OpenSim's (pelvis_tilt free), for the
+        # generalized-force map tau_u = (dq/du)^T tau_q
+        uu = ca.SX.sym("u", len(coords))
+        qu = [None] * nq
+        stance = ca.vertcat(uu[1], uu[2])
+        for role, s in enumerate(side_of_role):
+            ang = uu[0]
+            for seg in sk.legs[s]:
+                ang = ang + uu[coords.index(f"{seg.coordinate}_{s}")]
+                qu[iq[seg.angles[role]]] = ang - seg.frame_offset
+                if role == 0:
+                    stance = stance + seg.length * _d(ang - seg.frame_offset)
+        qu[nq - 2], qu[nq - 1] = stance[0], stance[1]
+        self.dq_du = ca.Function("dq_du", [uu], [ca.jacobian(ca.vertcat(*qu), uu)])
+        self.q_of_u = ca.Function("q_of_u", [uu], [ca.vertcat(*qu)])
+        # per phase: the generalized joint torques (springs, dampers, extension elements and
+        # the multipliers of internal rows such as the kneed walker's knee locks), the
+        # contact multipliers and their Jacobian rows
+        F_joint = model.F_q - model.system.F_gravity - model.system.F_velocity
+        self.tau, self.contact = {}, {}
+        for ph in model.phases:
+            E = ca.jacobian(ph.contact.rows, q)
+            internal = [i for i, lab in enumerate(ph.contact.labels) if lab.startswith("knee")]
+            tau = F_joint
+            for i in internal:
+                tau = tau + E[i, :].T * ph.lam[i]
+            self.tau[ph.name] = ca.Function(f"tau_{ph.name}", [x, p, m], [subs(tau)])
+            self.contact[ph.name] = ca.Function(f"lam_{ph.name}", [x, p, m],
+                                                [subs(ph.lam), subs(E)])
+        del qd, x
+
+
+_POINT_ROW = re.compile(r"^(toe|heel|foot)(\d)_([xy])$")
+_FLAT_ROW = re.compile(r"^flat(\d)$")
+
+
+@dataclass
+class Samples:
+    """The exported samples (one per distinct time): OpenSim coordinates (rad, m), their
+    rates and accelerations, the toolkit's points in the world frame (m), the ground
+    reaction force, centre of pressure and free moment of each side's contact body (N, m,
+    N m, ground frame) and the joint torques of the toolkit in OpenSim's coordinates (N m;
+    N for the pelvis translations)."""
+
+    time: np.ndarray
+    coordinates: list[str]
+    rotational: list[bool]
+    u: np.ndarray
+    ud: np.ndarray
+    udd: np.ndarray
+    points: dict[str, np.ndarray]
+    force: dict[str, np.ndarray]
+    cop: dict[str, np.ndarray]
+    free_moment: dict[str, np.ndarray]
+    tau: np.ndarray
+    phase: list[str] = field(default_factory=list)
+
+
+def _kept_rows(t: np.ndarray) -> np.ndarray:
+    """Indices of the rows kept: of several rows at one time (an event), the last."""
+    t = np.asarray(t, float)
+    keep = np.ones(len(t), bool)
+    keep[:-1] = t[1:] > t[:-1]
+    return np.flatnonzero(keep)
+
+
+def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None = None
+           ) -> Samples:
+    """Evaluate the export's quantities at every kept sample of a simulation ``result``
+    (:class:`~pdw_casadi.simulate.SimulationResult` with ``record=True``) of ``hs`` with the
+    parameter vectors ``p_steps`` used in turn (one for a symmetric walker)."""
+    traj = result.trajectory
+    if traj is None or traj.empty or result.sample_modes is None:
+        raise ProblemError("the OpenSim export needs a recorded simulation (record=True) "
+                           "with at least one sample")
+    sk = sk or skeleton(problem, hs)
+    ps = [np.asarray(v, float).ravel() for v in p_steps]
+    maps = [_Maps(sk, hs, 0), _Maps(sk, hs, 1)]
+    names = list(hs.model.q_names)
+    nq = hs.nq
+    Q = traj[names].to_numpy(float)
+    QD = traj[["d" + n for n in names]].to_numpy(float)
+    X = np.hstack([Q, QD, traj[["damping_work_J"]].to_numpy(float)])
+    steps = traj["step"].to_numpy(int)
+    phases = traj["phase"].to_numpy(str)
+    modes = result.sample_modes
+    point_names = hs.point_names
+    # the distance walked: the hip is continuous across a step's end, so each step's
+    # offset is the previous one plus the hip's jump in the toolkit's (re-centred) frame
+    hip_i = point_names.index("hip")
+    offsets = {int(steps[0]): np.zeros(2)}
+    for i in range(1, len(steps)):
+        if steps[i] != steps[i - 1]:
+            a = np.asarray(hs.points(X[i - 1], ps[steps[i - 1] % len(ps)])).reshape(2, -1)
+            b = np.asarray(hs.points(X[i], ps[steps[i] % len(ps)])).reshape(2, -1)
+            offsets[int(steps[i])] = offsets[int(steps[i - 1])] + a[:, hip_i] - b[:, hip_i]
+    keep = _kept_rows(traj["t"].to_numpy(float))
+    coords = sk.coordinate_names()
+    n = len(keep)
+    U, UD, UDD, TAU = (np.zeros((n, len(coords))) for _ in range(4))
+    pts = {}
+    force = {s: np.zeros((n, 2)) for s in SIDES}
+    cop = {s: np.zeros((n, 2)) for s in SIDES}
+    free = {s: np.zeros(n) for s in SIDES}
+    tangent = np.array([math.cos(sk.slope), -math.sin(sk.slope)])
+    for j, i in enumerate(keep):
+        k = int(steps[i])
+        p, mv, ph = ps[k % len(ps)], modes[i], phases[i]
+        mp = maps[k % 2]
+        side = ROLE_SIDES[k % 2]
+        xdot = np.asarray(hs.rhs[ph](X[i], p, mv)).ravel()
+        qdd = xdot[nq:2 * nq]
+        u, ud, udd = (np.asarray(v).ravel() for v in mp.u(X[i], p, qdd))
+        u[1:3] += offsets[k]
+        U[j], UD[j], UDD[j] = u, ud, udd
+        tau_q = np.asarray(mp.tau[ph](X[i], p, mv)).ravel()
+        TAU[j] = np.asarray(mp.dq_du(u)).T @ tau_q
+        P = np.asarray(hs.points(X[i], p)).reshape(2, -1) + offsets[k][:, None]
+        for c, pn in enumerate(point_names):
+            role = re.fullmatch(r"(\w+?)(\d)", pn)
+            key = pn if role is None else f"{role.group(1)}_{side[int(role.group(2)) - 1]}"
+            pts.setdefault(key, np.zeros((n, 2)))[j] = P[:, c]
+        lam, E = (np.asarray(v) for v in mp.contact[ph](X[i], p, mv))
+        lam = lam.ravel()
+        labels = hs.phases[ph].contact.labels
+        wrench = {s: [np.zeros(2), 0.0, []] for s in SIDES}  # force, moment about O, points
+        for r, lab in enumerate(labels):
+            mpt, mfl = _POINT_ROW.match(lab), _FLAT_ROW.match(lab)
+            if mpt:
+                s = side[int(mpt.group(2)) - 1]
+                at = P[:, point_names.index(f"{mpt.group(1)}{mpt.group(2)}")]
+                f = np.zeros(2)
+                f["xy".index(mpt.group(3))] = lam[r]
+                wrench[s][0] += f
+                wrench[s][1] += at[0] * f[1] - at[1] * f[0]
+                wrench[s][2].append(at)
+            elif mfl:
+                s = side[int(mfl.group(1)) - 1]
+                # the row depends on the foot angle only: a pure couple on the foot
+                wrench[s][1] += float(E[r, names.index(f"qf{mfl.group(1)}")] * lam[r])
+            elif not lab.startswith("knee"):
+                raise ProblemError(f"contact row {lab!r} of phase {ph}: not exported")
+        for s in SIDES:
+            F, M0, at = wrench[s]
+            force[s][j] = F
+            if not at:
+                continue
+            N = tangent[0] * F[1] - tangent[1] * F[0]  # t x F: the normal force
+            if len(at) == 1 and abs(M0 - (at[0][0] * F[1] - at[0][1] * F[0])) <= 1e-12 * (
+                    1 + abs(M0)):
+                P0 = at[0]  # one point contact: the force acts there
+            elif abs(N) > 1e-12:
+                # the point of the ground line (through the origin along t) about which the
+                # force has the contact's moment: (c t) x F = c N = M0
+                P0 = (M0 / N) * tangent
+            else:
+                P0 = at[0]
+            cop[s][j] = P0
+            free[s][j] = M0 - (P0[0] * F[1] - P0[1] * F[0])
+    return Samples(traj["t"].to_numpy(float)[keep], coords, sk.rotational(), U, UD, UDD,
+                   pts, force, cop, free, TAU, list(phases[keep]))
+
+
+def joint_torques(samples: Samples) -> dict[str, np.ndarray]:
+    """The toolkit's joint torques by OpenSim coordinate name (N m; the pelvis
+    translations in N): what OpenSim's inverse dynamics with the exported loads gives."""
+    return {c: samples.tau[:, i] for i, c in enumerate(samples.coordinates)}
+
+
+# --------------------------------------------------------------------------------------
+# files
+# --------------------------------------------------------------------------------------
+def _fmt(v: float) -> str:
+    return repr(float(v)) if math.isfinite(v) else "nan"
+
+
+def write_storage(path: Path, name: str, columns: list[str], time: np.ndarray,
+                  data: np.ndarray, in_degrees: bool) -> Path:
+    """An OpenSim storage file (``.mot``/``.sto``, version 1 header with nRows, nColumns
+    and inDegrees) of ``data`` (rows x columns) against ``time`` (s)."""
+    rows = ["\t".join([_fmt(t), *map(_fmt, r)]) for t, r in zip(time, data, strict=True)]
+    head = (f"{name}\nversion=1\nnRows={len(rows)}\nnColumns={len(columns) + 1}\n"
+            f"inDegrees={'yes' if in_degrees else 'no'}\n\n{MOTION_HEADER_NOTE}\nendheader\n")
+    path.write_text(head + "\t".join(["time", *columns]) + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def read_storage(path: Path) -> tuple[dict[str, str], list[str], np.ndarray]:
+    """(header fields, column names, data with time first) of a storage file written by
+    :func:`write_storage` (plain reader for checks; OpenSim reads them with ``Storage``)."""
+    lines = Path(path).read_text().splitlines()
+    end = lines.index("endheader")
+    header = dict(line.split("=", 1) for line in lines[:end] if "=" in line)
+    cols = lines[end + 1].split("\t")
+    data = np.array([[float(v) for v in line.split("\t")] for line in lines[end + 2:] if line])
+    return header, cols, data
+
+
+def force_columns(side: str) -> list[str]:
+    """The columns of one side's ground reaction in the force table."""
+    return ([f"ground_force_{side}_v{a}" for a in "xyz"]
+            + [f"ground_force_{side}_p{a}" for a in "xyz"]
+            + [f"ground_torque_{side}_{a}" for a in "xyz"])
+
+
+def write_external_loads(path: Path, forces_file: str, sk: WalkerSkeleton) -> Path:
+    """The ``ExternalLoads`` XML applying each side's ground reaction (force, point and
+    free moment expressed in ground) to its contact body."""
+    items = []
+    for s in SIDES:
+        items.append(f"""\t\t\t<ExternalForce name="ground_reaction_{s}">
+\t\t\t\t<isDisabled>false</isDisabled>
+\t\t\t\t<applied_to_body>{sk.contact_body}_{s}</applied_to_body>
+\t\t\t\t<force_expressed_in_body>ground</force_expressed_in_body>
+\t\t\t\t<point_expressed_in_body>ground</point_expressed_in_body>
+\t\t\t\t<force_identifier>ground_force_{s}_v</force_identifier>
+\t\t\t\t<point_identifier>ground_force_{s}_p</point_identifier>
+\t\t\t\t<torque_identifier>ground_torque_{s}_</torque_identifier>
+\t\t\t\t<data_source_name>{escape(forces_file)}</data_source_name>
+\t\t\t</ExternalForce>""")
+    body = "\n".join(items)
+    path.write_text(f"""<?xml version="1.0" encoding="UTF-8" ?>
+<OpenSimDocument Version="40000">
+\t<ExternalLoads name="ground_reactions">
+\t\t<objects>
+{body}
+\t\t</objects>
+\t\t<groups />
+\t\t<datafile>{escape(forces_file)}</datafile>
+\t</ExternalLoads>
+</OpenSimDocument>
+""")
+    return path
+
+
+@dataclass
+class OpenSimExport:
+    """The files of one export (paths) and the samples written to them."""
+
+    model: Path
+    motion: Path
+    forces: Path
+    external_loads: Path
+    torques: Path
+    samples: Samples
+
+    def to_dict(self) -> dict:
+        return {"model": str(self.model), "motion": str(self.motion),
+                "forces": str(self.forces), "external_loads": str(self.external_loads),
+                "torques": str(self.torques)}
+
+
+def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
+                   name: str | None = None) -> OpenSimExport:
+    """Write the OpenSim files of a recorded simulation ``result`` of ``problem`` into
+    ``out_dir`` (created if missing) and return their paths.
+
+    ``hs``: the simulator's hybrid system; ``p_steps``: the parameter vectors of the steps
+    in turn (``[problem.parameter_vector()]`` for a symmetric walker; a per-leg walker's
+    from :func:`pdw_casadi.stride.stride_simulator`). Files (``name`` defaults to the
+    problem's): ``<name>.osim`` (model), ``<name>.mot`` (coordinates, degrees and m),
+    ``<name>_grf.sto`` (per side: force N, centre of pressure m, free moment N m, in
+    ground), ``<name>_external_loads.xml`` and ``<name>_joint_torques.sto`` (the toolkit's
+    joint torques by coordinate, N m: the reference for OpenSim's inverse dynamics).
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    name = name or problem.name
+    sk = skeleton(problem, hs)
+    smp = sample(problem, result, hs, p_steps, sk)
+    osim_path = out / f"{name}.osim"
+    osim_path.write_text(model_xml(sk, name, credits=(
+        f"pdw-casadi export of {problem.name} ({problem.family}), slope {problem.slope!r} rad; "
+        f"{len(set(result.trajectory['step']))} steps")))
+    deg = np.where(smp.rotational, 180 / math.pi, 1.0)
+    motion = write_storage(out / f"{name}.mot", "Coordinates", smp.coordinates, smp.time,
+                           smp.u * deg, in_degrees=True)
+    cols, data = [], []
+    for s in SIDES:
+        cols += force_columns(s)
+        z = np.zeros(len(smp.time))
+        data += [smp.force[s][:, 0], smp.force[s][:, 1], z, smp.cop[s][:, 0],
+                 smp.cop[s][:, 1], z, z, z, smp.free_moment[s]]
+    forces = write_storage(out / f"{name}_grf.sto", "ground_reactions", cols, smp.time,
+                           np.column_stack(data), in_degrees=False)
+    loads = write_external_loads(out / f"{name}_external_loads.xml", forces.name, sk)
+    torques = write_storage(out / f"{name}_joint_torques.sto", "joint_torques",
+                            [f"{c}_{'moment' if r else 'force'}" for c, r in
+                             zip(smp.coordinates, smp.rotational, strict=True)],
+                            smp.time, smp.tau, in_degrees=False)
+    return OpenSimExport(osim_path, motion, forces, loads, torques, smp)
+
+
+def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
+                name: str | None = None) -> OpenSimExport:
+    """Simulate ``steps`` steps of ``problem`` from section state ``state`` (rad, rad/s;
+    ``parameters``: the parameter vector, default the problem's) and export them
+    (:func:`export_opensim`). A walker whose legs differ runs on the stride map's
+    per-leg walker (``parameters``: its physical parameters)."""
+    from ..simulate import Simulator
+
+    if problem.asymmetric:
+        from ..stride import StrideMap
+
+        smap = StrideMap(problem)
+        theta = smap.default_parameters() if parameters is None else parameters
+        sim, p_steps = Simulator(smap.problem, smap.hs), list(smap.step_parameters(theta))
+    else:
+        sim = Simulator(problem)
+        p_steps = [problem.parameter_vector() if parameters is None else parameters]
+    result = sim.run(np.asarray(state, float), p_steps[0], steps=steps, record=True,
+                     p_steps=p_steps)
+    if result.failure is not None:
+        raise ProblemError(f"{problem.name}: the simulation for the export failed in step "
+                           f"{result.failure.step}: {result.failure.reason}")
+    return export_opensim(problem, result, out_dir, sim.hs, p_steps, name=name)
+
+
+def read_back(export: OpenSimExport, id_rows=None, python: str | None = None,
+              timeout: float = 600.0) -> dict:
+    """OpenSim's view of an export: marker positions at every frame of the motion, the
+    force table as OpenSim reads it and OpenSim's inverse dynamics (with the exported
+    external loads) at the samples ``id_rows`` (indices into ``export.samples``; default
+    all). Needs the ``opensim`` package; runs :mod:`pdw_casadi.report.opensim_check` in a
+    child process (``python``: its interpreter, default this one), because OpenSim and
+    CasADi cannot share a process (module docstring there). Returns its arrays by name.
+    """
+    import subprocess
+    import sys
+    import tempfile
+
+    smp = export.samples
+    rows = np.arange(len(smp.time)) if id_rows is None else np.asarray(id_rows, int)
+    with tempfile.TemporaryDirectory() as tmp:
+        req, res = Path(tmp) / "request.npz", Path(tmp) / "result.npz"
+        np.savez(req, forces_path=str(export.forces), id_time=smp.time[rows],
+                 coordinates=np.array(smp.coordinates), id_speed=smp.ud[rows],
+                 id_acceleration=smp.udd[rows])
+        script = Path(__file__).with_name("opensim_check.py")
+        done = subprocess.run([python or sys.executable, str(script), str(export.model),
+                               str(export.motion), str(export.external_loads), str(req),
+                               str(res)], capture_output=True, text=True, timeout=timeout)
+        if done.returncode != 0:
+            raise RuntimeError(f"OpenSim could not read the export back (exit code "
+                               f"{done.returncode}): {done.stderr.strip()[-2000:]}")
+        with np.load(res, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}

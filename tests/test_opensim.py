@@ -1,0 +1,188 @@
+"""The OpenSim export, checked by OpenSim itself.
+
+For a fixed point of the 6-link walker, of a per-leg design (data/designs/) and of the
+kneed walker, two steps (one stride: each leg once in each role) are exported and read
+back by OpenSim in a child process (OpenSim and CasADi cannot share one:
+pdw_casadi/report/opensim_check.py). OpenSim's marker positions must equal the toolkit's
+points to 1e-9 m at every frame of the motion, its reading of the force table the written
+forces, and its inverse dynamics with the exported external loads, at the toolkit's exact
+speeds and accelerations, the toolkit's joint torques (springs, dampers, knee locks).
+
+Tolerance of the inverse dynamics, 1e-9 N m (N for the pelvis translations): both sides
+compute the same equations of motion in double precision, from coordinates and forces that
+round-trip exactly through the text files (17 significant digits; the degrees of the motion
+cost one rounding in the conversion). Their difference is rounding: terms up to the body
+weight times a leg length (~600 N m) and the ground reaction times its lever (~600 N m)
+summed over ~10^2 operations give ~600 * 2.2e-16 * 100 = 1.3e-11 N m; the bound leaves a
+factor of 100 for the platform and is eight orders of magnitude below the torques checked
+(knee springs to ~40 N m, kneed-walker knee locks to ~0.1 N m).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pdw_casadi.problem import load_problem
+from pdw_casadi.report.opensim import (
+    SIDES,
+    export_gait,
+    force_columns,
+    read_back,
+    read_storage,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
+                                reason="the opensim package is not installed "
+                                       "(pip install -e '.[opensim]')")
+
+POSITION_TOL = 1e-9  # m, the issue's bound
+ID_TOL = 1e-9  # N m (N), see the module docstring
+CASES = {
+    "humanlike_6link": "humanlike_6link",
+    "prosthesis29": str(ROOT / "data" / "designs" / "humanlike_6link_prosthesis29.toml"),
+    "kneed_walker": "kneed_walker",
+}
+#: every toolkit point a marker must follow
+MARKERS = {
+    "humanlike_6link": ["hip"] + [f"{p}_{s}" for s in SIDES
+                                  for p in ("knee", "ankle", "heel", "toe")],
+    "kneed_walker": ["hip"] + [f"{p}_{s}" for s in SIDES for p in ("knee", "foot")],
+}
+
+
+def _fixed_point(problem):
+    if problem.asymmetric:
+        from pdw_casadi.stride import find_stride_fixed_point
+
+        res = find_stride_fixed_point(problem, tol=1e-10)
+    else:
+        from pdw_casadi.fixed_point import find_fixed_point
+
+        res = find_fixed_point(problem, tol=1e-10)
+    assert res.converged and res.residual < 1e-9
+    return res
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def exported(request, tmp_path_factory):
+    """(problem, fixed point, export, OpenSim's read-back with inverse dynamics at every
+    sample) of one case."""
+    problem = load_problem(CASES[request.param])
+    res = _fixed_point(problem)
+    out = tmp_path_factory.mktemp(f"osim_{request.param}")
+    ex = export_gait(problem, res.state, out, parameters=res.parameters, steps=2)
+    return problem, res, ex, read_back(ex)
+
+
+def test_files_and_headers(exported):
+    problem, _, ex, _ = exported
+    for path in (ex.model, ex.motion, ex.forces, ex.external_loads, ex.torques):
+        assert path.is_file() and path.stat().st_size > 0
+    header, cols, data = read_storage(ex.motion)
+    assert header["inDegrees"] == "yes"
+    assert int(header["nRows"]) == len(data) == len(ex.samples.time)
+    assert int(header["nColumns"]) == len(cols) == data.shape[1]
+    assert cols[0] == "time" and np.all(np.diff(data[:, 0]) > 0)
+    # two steps: the motion covers both and walks down the slope (the pelvis advances by
+    # two step lengths along the ground's downhill direction)
+    header, cols, f = read_storage(ex.forces)
+    assert header["inDegrees"] == "no" and cols[1:] == force_columns("l") + force_columns("r")
+    u = ex.samples.u
+    assert u[-1, 1] - u[0, 1] > 0.3 and u[-1, 2] < u[0, 2]
+    xml = ex.external_loads.read_text()
+    assert xml.count("<ExternalForce ") == 2 and ex.forces.name in xml
+
+
+def test_marker_positions_equal_the_toolkits(exported):
+    problem, _, ex, rb = exported
+    names = [str(n) for n in rb["marker_names"]]
+    expected = MARKERS["kneed_walker" if problem.family == "kneed_walker"
+                       else "humanlike_6link"]
+    assert sorted(names) == sorted(expected)
+    assert len(rb["motion_time"]) == len(ex.samples.time)
+    pos = rb["marker_positions"]
+    for k, n in enumerate(names):
+        err = np.abs(pos[:, k, :2] - ex.samples.points[n]).max()
+        assert err <= POSITION_TOL, f"{n}: |OpenSim - toolkit| = {err:.3g} m"
+    assert np.abs(pos[:, :, 2]).max() == 0.0  # planar
+
+
+def test_body_masses(exported):
+    problem, _, _, rb = exported
+    masses = dict(zip(map(str, rb["body_names"]), rb["masses"], strict=True))
+    assert masses["pelvis"] == problem.anthropometry["m_h"]
+    total = problem.anthropometry["m_h"]
+    for side, s in (("left", "l"), ("right", "r")):
+        a = problem.leg_values(side)[1]
+        if problem.family == "kneed_walker":
+            assert masses[f"thigh_{s}"] == a["m_t"] and masses[f"shank_{s}"] == a["m_s"]
+            total += a["m_t"] + a["m_s"]
+        else:
+            assert (masses[f"thigh_{s}"], masses[f"shank_{s}"], masses[f"foot_{s}"]) == \
+                (a["m_t"], a["m_s"], a["m_f"])
+            total += a["m_t"] + a["m_s"] + a["m_f"]
+    assert rb["total_mass"] == pytest.approx(total, rel=1e-15)
+
+
+def test_forces_read_back(exported):
+    _, _, ex, rb = exported
+    cols = [str(c) for c in rb["force_columns"]]
+    assert cols == force_columns("l") + force_columns("r")
+    np.testing.assert_array_equal(rb["force_time"], ex.samples.time)
+    smp = ex.samples
+    for s in SIDES:
+        got = {c: rb["force_data"][:, cols.index(c)] for c in force_columns(s)}
+        np.testing.assert_array_equal(got[f"ground_force_{s}_vx"], smp.force[s][:, 0])
+        np.testing.assert_array_equal(got[f"ground_force_{s}_vy"], smp.force[s][:, 1])
+        np.testing.assert_array_equal(got[f"ground_force_{s}_px"], smp.cop[s][:, 0])
+        np.testing.assert_array_equal(got[f"ground_force_{s}_py"], smp.cop[s][:, 1])
+        np.testing.assert_array_equal(got[f"ground_torque_{s}_z"], smp.free_moment[s])
+        # the contact carries the walker: a foot loads the ground with up to a few times
+        # body weight, and the centre of pressure lies on the ground line (height 0)
+        assert np.max(smp.force[s][:, 1]) > 10.0
+        gamma = ex_slope(ex)
+        on = np.abs(smp.force[s]).sum(axis=1) > 0
+        height = smp.cop[s][on] @ np.array([math.sin(gamma), math.cos(gamma)])
+        assert np.abs(height).max() < 1e-12
+
+
+def ex_slope(ex) -> float:
+    """The slope (rad) stated as the orientation of the model's slope frame."""
+    import re
+
+    text = ex.model.read_text()
+    m = re.search(r'<PhysicalOffsetFrame name="slope">.*?<orientation>([^<]+)</orientation>',
+                  text, re.S)
+    return -float(m.group(1).split()[2])
+
+
+def test_slope_frame(exported):
+    problem, _, ex, _ = exported
+    assert ex_slope(ex) == problem.slope
+
+
+def test_inverse_dynamics_reproduces_the_joint_torques(exported):
+    problem, _, ex, rb = exported
+    names = [str(n) for n in rb["coordinate_names"]]
+    smp = ex.samples
+    assert sorted(names) == sorted(smp.coordinates)
+    worst = {}
+    for j, c in enumerate(smp.coordinates):
+        worst[c] = np.abs(rb["id_forces"][:, names.index(c)] - smp.tau[:, j]).max()
+    assert max(worst.values()) <= ID_TOL, worst
+    # what is checked is not nothing: the knees carry torques (springs and dampers; the
+    # kneed walker's locks), the pelvis and hips none (no hip spring, no residual)
+    knee = max(np.abs(smp.tau[:, smp.coordinates.index(f"knee_angle_{s}")]).max()
+               for s in SIDES)
+    assert knee > (0.05 if problem.family == "kneed_walker" else 10.0)
+    for c in ("pelvis_tilt", "pelvis_tx", "pelvis_ty", "hip_flexion_l", "hip_flexion_r"):
+        assert np.abs(smp.tau[:, smp.coordinates.index(c)]).max() < 1e-9
+    if problem.family != "kneed_walker":
+        ankle = np.abs(smp.tau[:, smp.coordinates.index("ankle_angle_l")]).max()
+        assert ankle > 1.0
