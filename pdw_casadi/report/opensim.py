@@ -47,8 +47,8 @@ import numpy as np
 from ..errors import ProblemError
 from ..hybrid import HybridSystem
 
-__all__ = ["OpenSimExport", "read_back", "WalkerSkeleton", "export_gait", "export_opensim",
-           "joint_torques", "read_storage", "skeleton"]
+__all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "joint_torques",
+           "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
 
 SIDES = ("l", "r")
 #: the physical side of leg 1 (the stance leg at the section) in step k: left in even steps
@@ -537,6 +537,29 @@ def write_external_loads(path: Path, forces_file: str, sk: WalkerSkeleton) -> Pa
     return path
 
 
+def write_id_setup(path: Path, name: str, t0: float, t1: float) -> Path:
+    """A setup file of OpenSim's ``InverseDynamicsTool`` for the exported files (beside it,
+    by relative name): ``opensim-cmd run-tool <name>_id_setup.xml`` writes the generalized
+    forces to ``inverse_dynamics/<name>_id.sto`` (columns as in the joint-torque file).
+    The coordinates are not filtered (cut-off -1): the motion is a simulation, not noisy
+    data."""
+    path.write_text(f"""<?xml version="1.0" encoding="UTF-8" ?>
+<OpenSimDocument Version="40000">
+\t<InverseDynamicsTool name="{escape(name)}_id">
+\t\t<results_directory>inverse_dynamics</results_directory>
+\t\t<model_file>{escape(name)}.osim</model_file>
+\t\t<time_range>{_v(t0, t1)}</time_range>
+\t\t<forces_to_exclude />
+\t\t<external_loads_file>{escape(name)}_external_loads.xml</external_loads_file>
+\t\t<coordinates_file>{escape(name)}.mot</coordinates_file>
+\t\t<lowpass_cutoff_frequency_for_coordinates>-1</lowpass_cutoff_frequency_for_coordinates>
+\t\t<output_gen_force_file>{escape(name)}_id.sto</output_gen_force_file>
+\t</InverseDynamicsTool>
+</OpenSimDocument>
+""")
+    return path
+
+
 @dataclass
 class OpenSimExport:
     """The files of one export (paths) and the samples written to them."""
@@ -546,12 +569,13 @@ class OpenSimExport:
     forces: Path
     external_loads: Path
     torques: Path
+    id_setup: Path
     samples: Samples
 
     def to_dict(self) -> dict:
         return {"model": str(self.model), "motion": str(self.motion),
                 "forces": str(self.forces), "external_loads": str(self.external_loads),
-                "torques": str(self.torques)}
+                "torques": str(self.torques), "id_setup": str(self.id_setup)}
 
 
 def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
@@ -564,8 +588,9 @@ def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
     from :func:`pdw_casadi.stride.stride_simulator`). Files (``name`` defaults to the
     problem's): ``<name>.osim`` (model), ``<name>.mot`` (coordinates, degrees and m),
     ``<name>_grf.sto`` (per side: force N, centre of pressure m, free moment N m, in
-    ground), ``<name>_external_loads.xml`` and ``<name>_joint_torques.sto`` (the toolkit's
-    joint torques by coordinate, N m: the reference for OpenSim's inverse dynamics).
+    ground), ``<name>_external_loads.xml``, ``<name>_joint_torques.sto`` (the toolkit's
+    joint torques by coordinate, N m: the reference for OpenSim's inverse dynamics) and
+    ``<name>_id_setup.xml`` (OpenSim's inverse-dynamics tool on these files).
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -592,7 +617,8 @@ def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
                             [f"{c}_{'moment' if r else 'force'}" for c, r in
                              zip(smp.coordinates, smp.rotational, strict=True)],
                             smp.time, smp.tau, in_degrees=False)
-    return OpenSimExport(osim_path, motion, forces, loads, torques, smp)
+    setup = write_id_setup(out / f"{name}_id_setup.xml", name, smp.time[0], smp.time[-1])
+    return OpenSimExport(osim_path, motion, forces, loads, torques, setup, smp)
 
 
 def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
@@ -621,13 +647,15 @@ def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
 
 
 def read_back(export: OpenSimExport, id_rows=None, python: str | None = None,
-              timeout: float = 600.0) -> dict:
+              timeout: float = 600.0, tool: bool = False) -> dict:
     """OpenSim's view of an export: marker positions at every frame of the motion, the
     force table as OpenSim reads it and OpenSim's inverse dynamics (with the exported
     external loads) at the samples ``id_rows`` (indices into ``export.samples``; default
-    all). Needs the ``opensim`` package; runs :mod:`pdw_casadi.report.opensim_check` in a
-    child process (``python``: its interpreter, default this one), because OpenSim and
-    CasADi cannot share a process (module docstring there). Returns its arrays by name.
+    all); with ``tool``, also the results of OpenSim's inverse-dynamics tool run from the
+    export's setup file (``tool_time``, ``tool_columns``, ``tool_data``). Needs the
+    ``opensim`` package; runs :mod:`pdw_casadi.report.opensim_check` in a child process
+    (``python``: its interpreter, default this one), because OpenSim and CasADi cannot
+    share a process (module docstring there). Returns its arrays by name.
     """
     import subprocess
     import sys
@@ -639,7 +667,8 @@ def read_back(export: OpenSimExport, id_rows=None, python: str | None = None,
         req, res = Path(tmp) / "request.npz", Path(tmp) / "result.npz"
         np.savez(req, forces_path=str(export.forces), id_time=smp.time[rows],
                  coordinates=np.array(smp.coordinates), id_speed=smp.ud[rows],
-                 id_acceleration=smp.udd[rows])
+                 id_acceleration=smp.udd[rows],
+                 id_setup=str(export.id_setup) if tool else "")
         script = Path(__file__).with_name("opensim_check.py")
         done = subprocess.run([python or sys.executable, str(script), str(export.model),
                                str(export.motion), str(export.external_loads), str(req),
@@ -649,3 +678,55 @@ def read_back(export: OpenSimExport, id_rows=None, python: str | None = None,
                                f"{done.returncode}): {done.stderr.strip()[-2000:]}")
         with np.load(res, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
+
+
+def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 0.08,
+                        title: str = "the walker as OpenSim sees it"):
+    """A picture of the model from OpenSim's own numbers (:func:`read_back`): at ``n``
+    frames spread over the motion, each body frame's origin and its x (red) and y (green)
+    axes (``axis_length`` m), the links between the markers and the walking surface.
+    Saved to ``path`` when given; returns the figure."""
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    frames, markers = back["body_frames"], back["marker_positions"]
+    names = [str(m) for m in back["marker_names"]]
+    chain = {s: [m for m in ("hip", f"knee_{s}", f"ankle_{s}", f"foot_{s}") if m in names]
+             for s in SIDES}
+    feet = {s: [m for m in (f"heel_{s}", f"ankle_{s}", f"toe_{s}", f"heel_{s}")
+                if m in names] for s in SIDES}
+    picks = np.linspace(0, len(frames) - 1, n).round().astype(int)
+    fig, ax = plt.subplots(figsize=(10, 4.2))
+    colours = {"l": "tab:blue", "r": "tab:orange"}
+    for k, i in enumerate(picks):
+        alpha = 0.35 + 0.65 * k / max(n - 1, 1)
+        for s in SIDES:
+            for line in (chain[s], feet[s]):
+                if len(line) > 1:
+                    xy = markers[i, [names.index(m) for m in line], :2]
+                    ax.plot(xy[:, 0], xy[:, 1], color=colours[s], alpha=alpha, lw=2,
+                            label=f"leg {s}" if k == len(picks) - 1 and line is chain[s]
+                            else None)
+        o = frames[i, :, 0, :2]
+        ax.quiver(o[:, 0], o[:, 1], frames[i, :, 1, 0], frames[i, :, 1, 1], color="red",
+                  angles="xy", scale_units="xy", scale=1 / axis_length, width=0.003)
+        ax.quiver(o[:, 0], o[:, 1], frames[i, :, 2, 0], frames[i, :, 2, 1], color="green",
+                  angles="xy", scale_units="xy", scale=1 / axis_length, width=0.003)
+        ax.plot(o[:, 0], o[:, 1], "k.", ms=4)
+    xs = markers[:, :, 0]
+    x0, x1 = float(xs.min()) - 0.1, float(xs.max()) + 0.1
+    gamma = float(back.get("slope", 0.0))
+    ax.plot([x0, x1], [-x0 * math.tan(gamma), -x1 * math.tan(gamma)], color="0.4", lw=1,
+            label="ground")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m, ground frame)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(f"{title}: body frames (x red, y green) at {n} instants")
+    ax.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig

@@ -9,13 +9,17 @@ imports neither CasADi nor the toolkit, only numpy and OpenSim.
 
 REQUEST.npz holds ``forces_path`` (the force table), ``id_time`` (s) and, per coordinate
 in ``coordinates`` (names), ``id_speed`` and ``id_acceleration`` (rad/s, rad/s^2, m/s,
-m/s^2; rows: times) for the inverse dynamics. RESULT.npz gets OpenSim's numbers: ``marker_names``,
-``marker_positions`` (frames x markers x 3, m, ground frame) at every frame of the motion,
-``motion_time``; ``force_columns``, ``force_time``, ``force_data`` (the force table as
-OpenSim reads it); ``id_forces`` (times x coordinates, N m or N: the generalized forces of
-OpenSim's inverse dynamics with the external loads applied, at the coordinates of the
-motion at those times); ``coordinate_names``, ``rotational``; ``masses`` (kg) of the bodies
-``body_names`` and the model's total mass.
+m/s^2; rows: times) for the inverse dynamics, ``id_setup`` (optional: a setup file of
+OpenSim's inverse-dynamics tool to run too). RESULT.npz gets OpenSim's numbers:
+``marker_names``, ``marker_positions`` (frames x markers x 3, m, ground frame) and
+``body_frames`` (frames x bodies x 4 x 3: each body frame's origin and its x, y, z axes
+in ground, m) at every frame of the motion, ``motion_time``; ``force_columns``,
+``force_time``, ``force_data`` (the force table as OpenSim reads it); ``id_forces`` (times
+x coordinates, N m or N: the generalized forces of OpenSim's inverse dynamics with the
+external loads applied, at the coordinates of the motion at those times);
+``coordinate_names``, ``rotational``; ``slope`` (rad, from the orientation of the ground's
+slope frame); ``masses`` (kg) of the bodies ``body_names`` and the model's total mass;
+with ``id_setup``, the tool's ``tool_time``, ``tool_columns``, ``tool_data``.
 """
 
 from __future__ import annotations
@@ -63,6 +67,10 @@ def read_back(model_path: str, motion_path: str, loads_path: str, request: dict)
     ms = model.getMarkerSet()
     marker_names = [ms.get(i).getName() for i in range(ms.getSize())]
     positions = np.zeros((len(m_time), len(marker_names), 3))
+    bs = model.getBodySet()
+    body_names = [bs.get(i).getName() for i in range(bs.getSize())]
+    # each body frame in ground: origin and the columns of its rotation (x, y, z axes)
+    frames = np.zeros((len(m_time), len(body_names), 4, 3))
     col_coord = [cs.get(c) for c in m_cols]
     for i in range(len(m_time)):
         for c, v in zip(col_coord, q_all[i], strict=True):
@@ -71,6 +79,11 @@ def read_back(model_path: str, motion_path: str, loads_path: str, request: dict)
         for k in range(len(marker_names)):
             loc = ms.get(k).getLocationInGround(state)
             positions[i, k] = [loc.get(0), loc.get(1), loc.get(2)]
+        for k in range(len(body_names)):
+            tr = bs.get(k).getTransformInGround(state)
+            rot = tr.R().asMat33()
+            frames[i, k, 0] = [tr.p().get(a) for a in range(3)]
+            frames[i, k, 1:] = [[rot.get(a, c) for a in range(3)] for c in range(3)]
 
     f_time, f_cols, f_data, _ = _table(request["forces_path"])
 
@@ -101,15 +114,35 @@ def read_back(model_path: str, motion_path: str, loads_path: str, request: dict)
         gen = solver.solve(state, udot)
         for k, n in enumerate(tree_names):
             id_forces[r, coord_names.index(n)] = gen.get(k)
-    bs = model.getBodySet()
+    tool = {}
+    if request.get("id_setup"):
+        # OpenSim's own inverse-dynamics tool from the export's setup file: it splines the
+        # coordinates and differentiates them (the way a user runs it)
+        setup = os.path.abspath(request["id_setup"])
+        cwd = os.getcwd()
+        os.chdir(os.path.dirname(setup))  # the setup names its files relative to itself
+        try:
+            id_tool = osim.InverseDynamicsTool(setup)
+            if not id_tool.run():
+                raise RuntimeError(f"the inverse-dynamics tool failed on {setup}")
+            out = os.path.join(id_tool.getResultsDir(), id_tool.getOutputGenForceFileName())
+            t_time, t_cols, t_data, _ = _table(os.path.abspath(out))
+        finally:
+            os.chdir(cwd)
+        tool = {"tool_time": t_time, "tool_columns": np.array(t_cols), "tool_data": t_data}
+    # the walking surface: the ground's slope frame is rotated -slope about z
+    surface = model.getComponent("/ground/slope").getTransformInGround(state).R().asMat33()
+    slope = -float(np.arctan2(surface.get(1, 0), surface.get(0, 0)))
     return {
+        "slope": slope,
         "marker_names": np.array(marker_names), "marker_positions": positions,
         "motion_time": m_time, "force_columns": np.array(f_cols), "force_time": f_time,
         "force_data": f_data, "id_forces": id_forces,
         "coordinate_names": np.array(coord_names), "rotational": np.array(rotational),
-        "body_names": np.array([bs.get(i).getName() for i in range(bs.getSize())]),
+        "body_names": np.array(body_names), "body_frames": frames,
         "masses": np.array([bs.get(i).getMass() for i in range(bs.getSize())]),
         "total_mass": float(model.getTotalMass(state)),
+        **tool,
     }
 
 
@@ -118,6 +151,7 @@ def main(argv: list[str]) -> int:
     with np.load(request_path, allow_pickle=False) as z:
         request = {k: z[k] for k in z.files}
     request["forces_path"] = str(request["forces_path"])
+    request["id_setup"] = str(request.get("id_setup", ""))
     np.savez(result_path, **read_back(model_path, motion_path, loads_path, request))
     return 0
 
