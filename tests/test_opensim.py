@@ -143,13 +143,15 @@ def test_forces_read_back(exported):
         np.testing.assert_array_equal(got[f"ground_force_{s}_px"], smp.cop[s][:, 0])
         np.testing.assert_array_equal(got[f"ground_force_{s}_py"], smp.cop[s][:, 1])
         np.testing.assert_array_equal(got[f"ground_torque_{s}_z"], smp.free_moment[s])
-        # the contact carries the walker: a foot loads the ground with up to a few times
-        # body weight, and the centre of pressure lies on the ground line (height 0)
+        # the contact carries the walker, and the centre of pressure lies on the ground
+        # line: within 1e-9 m, because a pivot's force acts at the toolkit's point, which
+        # the integration of the constrained dynamics lets drift off the ground by ~2e-11 m
+        # over a phase (the heel in phase III of this gait)
         assert np.max(smp.force[s][:, 1]) > 10.0
         gamma = float(rb["slope"])
         on = np.abs(smp.force[s]).sum(axis=1) > 0
         height = smp.cop[s][on] @ np.array([math.sin(gamma), math.cos(gamma)])
-        assert np.abs(height).max() < 1e-12
+        assert np.abs(height).max() < 1e-9
 
 
 def test_slope_frame(exported):

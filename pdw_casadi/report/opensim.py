@@ -273,18 +273,22 @@ def model_xml(sk: WalkerSkeleton, name: str, credits: str = "") -> str:
 # coordinates, forces and torques of the toolkit's samples
 # --------------------------------------------------------------------------------------
 class _Maps:
-    """CasADi maps between the toolkit state and the OpenSim coordinates of a skeleton, for
-    leg 1 on side ``ROLE_SIDES[parity][0]``."""
+    """CasADi maps from the toolkit state to the OpenSim coordinates of a skeleton, for
+    leg 1 on side ``ROLE_SIDES[parity][0]``. Every function takes many samples at once
+    (states as columns)."""
 
     def __init__(self, sk: WalkerSkeleton, hs: HybridSystem, parity: int):
         model = hs.model
         q, qd, p, m = model.system.q, model.system.qd, model.p, model.m
-        self.hs, self.sk = hs, sk
         names = list(model.q_names)
         iq = {n: i for i, n in enumerate(names)}
         side_of_role = ROLE_SIDES[parity]
         coords = sk.coordinate_names()
-        u = [None] * len(coords)
+        nq, nu = hs.nq, len(coords)
+        x, subs = hs.x_sym, hs.subs_x
+        # u(q): the pelvis at the hip (tilt 0), each joint angle the difference of its
+        # bodies' frame angles
+        u = [None] * nu
         hip = model.points["hip"]
         u[0], u[1], u[2] = ca.SX(0), hip[0], hip[1]
         for role, s in enumerate(side_of_role):
@@ -296,15 +300,12 @@ class _Maps:
         u = ca.vertcat(*u)
         A = ca.jacobian(u, q)
         ud = ca.mtimes(A, qd)
-        qdd = ca.SX.sym("qdd", q.shape[0])
+        qdd = ca.SX.sym("qdd", nq)
         udd = ca.mtimes(A, qdd) + ca.jtimes(ud, q, qd)
-        x = hs.x_sym
-        nq = hs.nq
-        subs = hs.subs_x
         self.u = ca.Function("u", [x, p, qdd], [subs(u), subs(ud), subs(udd)])
-        # q(u): the toolkit coordinates from OpenSim's (pelvis_tilt free), for the
-        # generalized-force map tau_u = (dq/du)^T tau_q
-        uu = ca.SX.sym("u", len(coords))
+        # q(u): the toolkit coordinates from OpenSim's (pelvis_tilt free; the stance
+        # contact point reached down leg 1), for the generalized forces tau_u = (dq/du)^T tau_q
+        uu = ca.SX.sym("u", nu)
         qu = [None] * nq
         stance = ca.vertcat(uu[1], uu[2])
         for role, s in enumerate(side_of_role):
@@ -315,23 +316,34 @@ class _Maps:
                 if role == 0:
                     stance = stance + seg.length * _d(ang - seg.frame_offset)
         qu[nq - 2], qu[nq - 1] = stance[0], stance[1]
-        self.dq_du = ca.Function("dq_du", [uu], [ca.jacobian(ca.vertcat(*qu), uu)])
-        self.q_of_u = ca.Function("q_of_u", [uu], [ca.vertcat(*qu)])
-        # per phase: the generalized joint torques (springs, dampers, extension elements and
-        # the multipliers of internal rows such as the kneed walker's knee locks), the
-        # contact multipliers and their Jacobian rows
+        dq_du = ca.Function("dq_du", [uu], [ca.jacobian(ca.vertcat(*qu), uu)])
+        J = dq_du(u)  # at the sample's coordinates (invariant to the pelvis translation)
+        # per phase: the joint torques (springs, dampers, extension elements and the
+        # multipliers of internal rows such as the kneed walker's knee locks) in OpenSim's
+        # coordinates, and each contact row's load: a point row's force component (N) or
+        # a flat-foot row's couple on its foot (N m; the row depends on the foot angle only)
         F_joint = model.F_q - model.system.F_gravity - model.system.F_velocity
         self.tau, self.contact = {}, {}
         for ph in model.phases:
             E = ca.jacobian(ph.contact.rows, q)
-            internal = [i for i, lab in enumerate(ph.contact.labels) if lab.startswith("knee")]
             tau = F_joint
-            for i in internal:
-                tau = tau + E[i, :].T * ph.lam[i]
-            self.tau[ph.name] = ca.Function(f"tau_{ph.name}", [x, p, m], [subs(tau)])
-            self.contact[ph.name] = ca.Function(f"lam_{ph.name}", [x, p, m],
-                                                [subs(ph.lam), subs(E)])
-        del qd, x
+            loads = []
+            for i, lab in enumerate(ph.contact.labels):
+                if lab.startswith("knee"):
+                    tau = tau + E[i, :].T * ph.lam[i]
+                    loads.append(ca.SX(0))
+                elif _FLAT_ROW.match(lab):
+                    qf = iq[f"qf{_FLAT_ROW.match(lab).group(1)}"]
+                    loads.append(E[i, qf] * ph.lam[i])
+                elif _POINT_ROW.match(lab):
+                    loads.append(ph.lam[i])
+                else:
+                    raise ProblemError(f"contact row {lab!r} of phase {ph.name}: no OpenSim "
+                                       f"export for it")
+            self.tau[ph.name] = ca.Function(f"tau_{ph.name}", [x, p, m],
+                                            [subs(ca.mtimes(J.T, tau))])
+            self.contact[ph.name] = ca.Function(f"loads_{ph.name}", [x, p, m],
+                                                [subs(ca.vertcat(*loads))])
 
 
 _POINT_ROW = re.compile(r"^(toe|heel|foot)(\d)_([xy])$")
@@ -368,6 +380,11 @@ def _kept_rows(t: np.ndarray) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+def _cross(a, b):
+    """z of a x b for rows of planar vectors."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
 def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None = None
            ) -> Samples:
     """Evaluate the export's quantities at every kept sample of a simulation ``result``
@@ -382,85 +399,91 @@ def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None
     maps = [_Maps(sk, hs, 0), _Maps(sk, hs, 1)]
     names = list(hs.model.q_names)
     nq = hs.nq
-    Q = traj[names].to_numpy(float)
-    QD = traj[["d" + n for n in names]].to_numpy(float)
-    X = np.hstack([Q, QD, traj[["damping_work_J"]].to_numpy(float)])
+    X = np.hstack([traj[names].to_numpy(float), traj[["d" + n for n in names]].to_numpy(float),
+                   traj[["damping_work_J"]].to_numpy(float)])
     steps = traj["step"].to_numpy(int)
     phases = traj["phase"].to_numpy(str)
-    modes = result.sample_modes
+    modes = np.asarray(result.sample_modes, float)
     point_names = hs.point_names
+    npt = len(point_names)
+
+    def points(xs, k):  # (samples, points, 2), m, in the toolkit's frame of step k
+        P = np.asarray(hs.points(xs.T, ps[k % len(ps)]))
+        return P.reshape(2, len(xs), npt).transpose(1, 2, 0)
+
     # the distance walked: the hip is continuous across a step's end, so each step's
     # offset is the previous one plus the hip's jump in the toolkit's (re-centred) frame
     hip_i = point_names.index("hip")
     offsets = {int(steps[0]): np.zeros(2)}
-    for i in range(1, len(steps)):
-        if steps[i] != steps[i - 1]:
-            a = np.asarray(hs.points(X[i - 1], ps[steps[i - 1] % len(ps)])).reshape(2, -1)
-            b = np.asarray(hs.points(X[i], ps[steps[i] % len(ps)])).reshape(2, -1)
-            offsets[int(steps[i])] = offsets[int(steps[i - 1])] + a[:, hip_i] - b[:, hip_i]
+    for i in np.flatnonzero(steps[1:] != steps[:-1]) + 1:
+        jump = points(X[i - 1:i], steps[i - 1])[0, hip_i] - points(X[i:i + 1], steps[i])[0, hip_i]
+        offsets[int(steps[i])] = offsets[int(steps[i - 1])] + jump
     keep = _kept_rows(traj["t"].to_numpy(float))
     coords = sk.coordinate_names()
     n = len(keep)
     U, UD, UDD, TAU = (np.zeros((n, len(coords))) for _ in range(4))
-    pts = {}
+    P = np.zeros((n, npt, 2))
     force = {s: np.zeros((n, 2)) for s in SIDES}
     cop = {s: np.zeros((n, 2)) for s in SIDES}
     free = {s: np.zeros(n) for s in SIDES}
     tangent = np.array([math.cos(sk.slope), -math.sin(sk.slope)])
-    for j, i in enumerate(keep):
-        k = int(steps[i])
-        p, mv, ph = ps[k % len(ps)], modes[i], phases[i]
-        mp = maps[k % 2]
-        side = ROLE_SIDES[k % 2]
-        xdot = np.asarray(hs.rhs[ph](X[i], p, mv)).ravel()
-        qdd = xdot[nq:2 * nq]
-        u, ud, udd = (np.asarray(v).ravel() for v in mp.u(X[i], p, qdd))
-        u[1:3] += offsets[k]
-        U[j], UD[j], UDD[j] = u, ud, udd
-        tau_q = np.asarray(mp.tau[ph](X[i], p, mv)).ravel()
-        TAU[j] = np.asarray(mp.dq_du(u)).T @ tau_q
-        P = np.asarray(hs.points(X[i], p)).reshape(2, -1) + offsets[k][:, None]
-        for c, pn in enumerate(point_names):
-            role = re.fullmatch(r"(\w+?)(\d)", pn)
-            key = pn if role is None else f"{role.group(1)}_{side[int(role.group(2)) - 1]}"
-            pts.setdefault(key, np.zeros((n, 2)))[j] = P[:, c]
-        lam, E = (np.asarray(v) for v in mp.contact[ph](X[i], p, mv))
-        lam = lam.ravel()
-        labels = hs.phases[ph].contact.labels
-        wrench = {s: [np.zeros(2), 0.0, []] for s in SIDES}  # force, moment about O, points
-        for r, lab in enumerate(labels):
+    # runs of kept samples with one step, phase and mode: one call per run and function
+    key = [(int(steps[i]), phases[i], tuple(modes[i])) for i in keep]
+    starts = [0] + [j for j in range(1, n) if key[j] != key[j - 1]] + [n]
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
+        k, ph, _ = key[a]
+        rows, p, mv = keep[a:b], ps[k % len(ps)], modes[keep[a]]
+        mp, side = maps[k % 2], ROLE_SIDES[k % 2]
+        Xg = X[rows].T
+        qdd = np.asarray(hs.rhs[ph](Xg, p, mv))[nq:2 * nq]
+        u, ud, udd = (np.asarray(v).T for v in mp.u(Xg, p, qdd))
+        u[:, 1:3] += offsets[k]
+        U[a:b], UD[a:b], UDD[a:b] = u, ud, udd
+        TAU[a:b] = np.asarray(mp.tau[ph](Xg, p, mv)).T
+        Pg = points(X[rows], k) + offsets[k]
+        P[a:b] = Pg
+        loads = np.asarray(mp.contact[ph](Xg, p, mv))
+        wrench = {s: [np.zeros((b - a, 2)), np.zeros(b - a), {}] for s in SIDES}
+        for r, lab in enumerate(hs.phases[ph].contact.labels):
             mpt, mfl = _POINT_ROW.match(lab), _FLAT_ROW.match(lab)
             if mpt:
                 s = side[int(mpt.group(2)) - 1]
-                at = P[:, point_names.index(f"{mpt.group(1)}{mpt.group(2)}")]
-                f = np.zeros(2)
-                f["xy".index(mpt.group(3))] = lam[r]
+                point = f"{mpt.group(1)}{mpt.group(2)}"
+                at = Pg[:, point_names.index(point)]
+                f = np.zeros((b - a, 2))
+                f[:, "xy".index(mpt.group(3))] = loads[r]
                 wrench[s][0] += f
-                wrench[s][1] += at[0] * f[1] - at[1] * f[0]
-                wrench[s][2].append(at)
+                wrench[s][1] += _cross(at, f)
+                wrench[s][2][point] = at
             elif mfl:
-                s = side[int(mfl.group(1)) - 1]
-                # the row depends on the foot angle only: a pure couple on the foot
-                wrench[s][1] += float(E[r, names.index(f"qf{mfl.group(1)}")] * lam[r])
-            elif not lab.startswith("knee"):
-                raise ProblemError(f"contact row {lab!r} of phase {ph}: not exported")
+                wrench[side[int(mfl.group(1)) - 1]][1] += loads[r]
         for s in SIDES:
             F, M0, at = wrench[s]
-            force[s][j] = F
+            at = list(at.values())
+            force[s][a:b] = F
             if not at:
                 continue
-            N = tangent[0] * F[1] - tangent[1] * F[0]  # t x F: the normal force
-            if len(at) == 1 and abs(M0 - (at[0][0] * F[1] - at[0][1] * F[0])) <= 1e-12 * (
-                    1 + abs(M0)):
-                P0 = at[0]  # one point contact: the force acts there
-            elif abs(N) > 1e-12:
-                # the point of the ground line (through the origin along t) about which the
-                # force has the contact's moment: (c t) x F = c N = M0
-                P0 = (M0 / N) * tangent
+            N = F @ np.array([-tangent[1], tangent[0]])  # t x F: the normal force
+            if len(at) == 1 and np.allclose(M0, _cross(at[0], F), rtol=1e-12, atol=1e-12):
+                C = at[0]  # one point contact, no couple: the force acts there
             else:
-                P0 = at[0]
-            cop[s][j] = P0
-            free[s][j] = M0 - (P0[0] * F[1] - P0[1] * F[0])
+                # the point of the ground line (through the origin along t) about which
+                # the force has the contact's moment: (c t) x F = c N = M0
+                safe = np.where(np.abs(N) > 1e-12, N, 1.0)
+                C = np.where((np.abs(N) > 1e-12)[:, None], (M0 / safe)[:, None] * tangent,
+                             at[0])
+            cop[s][a:b] = C
+            free[s][a:b] = M0 - _cross(C, F)
+    pts = {}
+    for c, pn in enumerate(point_names):
+        role = re.fullmatch(r"(\w+?)(\d)", pn)
+        if role is None:
+            pts[pn] = P[:, c]
+            continue
+        for parity in (0, 1):
+            sel = steps[keep] % 2 == parity
+            name = f"{role.group(1)}_{ROLE_SIDES[parity][int(role.group(2)) - 1]}"
+            pts.setdefault(name, np.zeros((n, 2)))[sel] = P[sel, c]
     return Samples(traj["t"].to_numpy(float)[keep], coords, sk.rotational(), U, UD, UDD,
                    pts, force, cop, free, TAU, list(phases[keep]))
 
