@@ -1,7 +1,7 @@
 """The OpenSim export, checked by OpenSim itself.
 
-For a fixed point of the 6-link walker, of a per-leg design (data/designs/) and of the
-kneed walker, two steps (one stride: each leg once in each role) are exported and read
+For a fixed point of the 6-link walker, of a per-leg design (data/designs/), of the
+kneed walker and of the rolling-feet walker, two steps (one stride: each leg once in each role) are exported and read
 back by OpenSim in a child process (OpenSim and CasADi cannot share one:
 pdw_casadi/report/opensim_check.py). OpenSim's marker positions must equal the toolkit's
 points to 1e-9 m at every frame of the motion, its reading of the force table the written
@@ -47,6 +47,8 @@ CASES = {
     "humanlike_6link": "humanlike_6link",
     "prosthesis29": str(ROOT / "data" / "designs" / "humanlike_6link_prosthesis29.toml"),
     "kneed_walker": "kneed_walker",
+    # rolling feet (toe arcs of 5 cm): the force acts at the arc's moving contact point
+    "humanlike_6link_arc": "humanlike_6link_arc",
 }
 #: every toolkit point a marker must follow
 MARKERS = {

@@ -157,9 +157,6 @@ def skeleton(problem, hs: HybridSystem) -> WalkerSkeleton:
     if key not in _FAMILIES:
         raise ProblemError(f"{problem.name} ({problem.family}): no OpenSim export for a "
                            f"walker with coordinates {', '.join(key)}")
-    if any(n.split("@")[0] in ("r_toe", "r_heel") for n in hs.model.parameter_names):
-        raise ProblemError(f"{problem.name} ({problem.family}): rolling feet are not "
-                           f"exported to OpenSim (their contact point moves on the arcs)")
     build, contact = _FAMILIES[key]
     sides = {"l": "left", "r": "right"}
     legs = {s: build(problem.leg_values(sides[s])[1], 1) for s in SIDES}
@@ -323,11 +320,33 @@ class _Maps:
         # coordinates, and each contact row's load: a point row's force component (N) or
         # a flat-foot row's couple on its foot (N m; the row depends on the foot angle only)
         F_joint = model.F_q - model.system.F_gravity - model.system.F_velocity
-        self.tau, self.contact = {}, {}
+        pnames = list(model.parameter_names)
+        slope = p[pnames.index("slope")]
+        t_slope = ca.vertcat(ca.cos(slope), -ca.sin(slope))
+        self.tau, self.contact, self.where = {}, {}, {}
         for ph in model.phases:
             E = ca.jacobian(ph.contact.rows, q)
             tau = F_joint
             loads = []
+            # where each point contact's force acts (m, toolkit frame): the point of its
+            # rows; a rolling arc's rows are its rolling point C - r n + r qf t, whose
+            # material contact point is C - r n (pdw_casadi.mechanics.rolling)
+            where = []
+            for lab in ph.contact.labels:
+                mpt = _POINT_ROW.match(lab)
+                if mpt and mpt.group(3) == "x":
+                    pair = ph.contact.rows[[ph.contact.labels.index(lab),
+                                            ph.contact.labels.index(lab[:-1] + "y")]]
+                    kind, role = mpt.group(1), mpt.group(2)
+                    r_name = next((n for n in (f"r_{kind}@{role}", f"r_{kind}")
+                                   if n in pnames), None)
+                    if r_name is not None and ca.depends_on(pair, p[pnames.index(r_name)]):
+                        pair = pair - (p[pnames.index(r_name)] * q[iq[f"qf{role}"]]
+                                       * t_slope)
+                    where.append(pair)
+            self.where[ph.name] = ca.Function(f"where_{ph.name}", [x, p],
+                                              [subs(ca.horzcat(*where)) if where
+                                               else ca.SX(2, 0)])
             for i, lab in enumerate(ph.contact.labels):
                 if lab.startswith("knee"):
                     tau = tau + E[i, :].T * ph.lam[i]
@@ -443,13 +462,17 @@ def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None
         Pg = points(X[rows], k) + offsets[k]
         P[a:b] = Pg
         loads = np.asarray(mp.contact[ph](Xg, p, mv))
+        labels = hs.phases[ph].contact.labels
+        pairs = [lab[:-2] for lab in labels if _POINT_ROW.match(lab) and lab.endswith("_x")]
+        where = np.asarray(mp.where[ph](Xg, p)).reshape(2, b - a, len(pairs)) \
+            .transpose(1, 2, 0) + offsets[k]
         wrench = {s: [np.zeros((b - a, 2)), np.zeros(b - a), {}] for s in SIDES}
-        for r, lab in enumerate(hs.phases[ph].contact.labels):
+        for r, lab in enumerate(labels):
             mpt, mfl = _POINT_ROW.match(lab), _FLAT_ROW.match(lab)
             if mpt:
                 s = side[int(mpt.group(2)) - 1]
                 point = f"{mpt.group(1)}{mpt.group(2)}"
-                at = Pg[:, point_names.index(point)]
+                at = where[:, pairs.index(point)]
                 f = np.zeros((b - a, 2))
                 f[:, "xy".index(mpt.group(3))] = loads[r]
                 wrench[s][0] += f
