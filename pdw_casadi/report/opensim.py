@@ -47,8 +47,8 @@ import numpy as np
 from ..errors import ProblemError
 from ..hybrid import HybridSystem
 
-__all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "joint_torques",
-           "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
+__all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "fitted_problem",
+           "joint_torques", "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
 
 SIDES = ("l", "r")
 #: the physical side of leg 1 (the stance leg at the section) in step k: left in even steps
@@ -776,3 +776,18 @@ def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig
+
+
+def fitted_problem(problem, summary: dict):
+    """``problem`` with the compliance, slope and section state of a fit's summary
+    (``pdw-fit``'s summary.json as a dict: a one-step fit's ``compliance``, or a per-leg
+    fit's ``legs.<side>.compliance``; ``slope`` in rad; ``fixed_point`` in rad, rad/s)."""
+    if "legs" in summary and "compliance" not in summary:
+        legs = {side: {**problem.legs.get(side, {}), "compliance": dict(v["compliance"])}
+                for side, v in summary["legs"].items()}
+        new = problem.replace(legs=legs, slope=float(summary["slope"]))
+    else:
+        new = problem.replace(compliance=dict(summary["compliance"]),
+                              slope=float(summary["slope"]))
+    return new.with_state(dict(summary["fixed_point"]))
+
