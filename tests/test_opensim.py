@@ -1,8 +1,8 @@
 """The OpenSim export, checked by OpenSim itself.
 
 For a fixed point of the 6-link walker, of a per-leg design (data/designs/), of the
-kneed walker and of the rolling-feet walker, two steps (one stride: each leg once in each role) are exported and read
-back by OpenSim in a child process (OpenSim and CasADi cannot share one:
+kneed walker and of the rolling-feet walker, two steps (one stride: each leg once in each
+role) are exported and read back by OpenSim in a child process (OpenSim and CasADi cannot share one:
 pdw_casadi/report/opensim_check.py). OpenSim's marker positions must equal the toolkit's
 points to 1e-9 m at every frame of the motion, its reading of the force table the written
 forces, and its inverse dynamics with the exported external loads, at the toolkit's exact
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pdw_casadi.problem import load_problem
+from pdw_casadi.model.problem import load_problem
 from pdw_casadi.report.opensim import (
     SIDES,
     export_gait,
@@ -60,11 +60,11 @@ MARKERS = {
 
 def _fixed_point(problem):
     if problem.asymmetric:
-        from pdw_casadi.stride import find_stride_fixed_point
+        from pdw_casadi.gait.stride import find_stride_fixed_point
 
         res = find_stride_fixed_point(problem, tol=1e-10)
     else:
-        from pdw_casadi.fixed_point import find_fixed_point
+        from pdw_casadi.gait.fixed_point import find_fixed_point
 
         res = find_fixed_point(problem, tol=1e-10)
     assert res.converged and res.residual < 1e-9

@@ -18,7 +18,7 @@ The model (docs/opensim.md):
   toe), so its z rotation is the toolkit's absolute angle (the foot's minus pi/2).
 - Legs are roles in the toolkit (leg 1 in stance at the start of a step); the export follows
   physical legs: leg 1 of the first step is the left leg, as in the stride map
-  (:mod:`pdw_casadi.stride`), so the left leg is leg 1 in even steps and leg 2 in odd ones.
+  (:mod:`pdw_casadi.gait.stride`), so the left leg is leg 1 in even steps and leg 2 in odd ones.
   Per-leg parameters (``[anthropometry.right]``) give each side its own bodies.
 - The toolkit puts the stance toe back at the origin after every step; the export adds the
   distance walked, so that the motion continues down the slope.
@@ -44,8 +44,8 @@ from xml.sax.saxutils import escape
 import casadi as ca
 import numpy as np
 
-from ..errors import ProblemError
-from ..hybrid import HybridSystem
+from pdw_casadi.engine.errors import ProblemError
+from pdw_casadi.model.hybrid import HybridSystem
 
 __all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "fitted_problem",
            "joint_torques", "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
@@ -330,7 +330,7 @@ class _Maps:
             loads = []
             # where each point contact's force acts (m, toolkit frame): the point of its
             # rows; a rolling arc's rows are its rolling point C - r n + r qf t, whose
-            # material contact point is C - r n (pdw_casadi.mechanics.rolling)
+            # material contact point is C - r n (pdw_casadi.model.mechanics.rolling)
             where = []
             for lab in ph.contact.labels:
                 mpt = _POINT_ROW.match(lab)
@@ -407,7 +407,7 @@ def _cross(a, b):
 def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None = None
            ) -> Samples:
     """Evaluate the export's quantities at every kept sample of a simulation ``result``
-    (:class:`~pdw_casadi.simulate.SimulationResult` with ``record=True``) of ``hs`` with the
+    (:class:`~pdw_casadi.gait.simulate.SimulationResult` with ``record=True``) of ``hs`` with the
     parameter vectors ``p_steps`` used in turn (one for a symmetric walker)."""
     traj = result.trajectory
     if traj is None or traj.empty or result.sample_modes is None:
@@ -631,7 +631,7 @@ def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
 
     ``hs``: the simulator's hybrid system; ``p_steps``: the parameter vectors of the steps
     in turn (``[problem.parameter_vector()]`` for a symmetric walker; a per-leg walker's
-    from :func:`pdw_casadi.stride.stride_simulator`). Files (``name`` defaults to the
+    from :func:`pdw_casadi.gait.stride.stride_simulator`). Files (``name`` defaults to the
     problem's): ``<name>.osim`` (model), ``<name>.mot`` (coordinates, degrees and m),
     ``<name>_grf.sto`` (per side: force N, centre of pressure m, free moment N m, in
     ground), ``<name>_external_loads.xml``, ``<name>_joint_torques.sto`` (the toolkit's
@@ -673,10 +673,10 @@ def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
     ``parameters``: the parameter vector, default the problem's) and export them
     (:func:`export_opensim`). A walker whose legs differ runs on the stride map's
     per-leg walker (``parameters``: its physical parameters)."""
-    from ..simulate import Simulator
+    from pdw_casadi.gait.simulate import Simulator
 
     if problem.asymmetric:
-        from ..stride import StrideMap
+        from pdw_casadi.gait.stride import StrideMap
 
         smap = StrideMap(problem)
         theta = smap.default_parameters() if parameters is None else parameters
@@ -732,11 +732,7 @@ def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 
     frames spread over the motion, each body frame's origin and its x (red) and y (green)
     axes (``axis_length`` m), the links between the markers and the walking surface.
     Saved to ``path`` when given; returns the figure."""
-    import matplotlib
-
-    if path is not None:
-        matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     frames, markers = back["body_frames"], back["marker_positions"]
     names = [str(m) for m in back["marker_names"]]
@@ -745,7 +741,9 @@ def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 
     feet = {s: [m for m in (f"heel_{s}", f"ankle_{s}", f"toe_{s}", f"heel_{s}")
                 if m in names] for s in SIDES}
     picks = np.linspace(0, len(frames) - 1, n).round().astype(int)
-    fig, ax = plt.subplots(figsize=(10, 4.2))
+    # a Figure without pyplot: no backend is chosen or switched (as pdw_casadi.report.plots)
+    fig = Figure(figsize=(10, 4.2), layout="constrained")
+    ax = fig.add_subplot()
     colours = {"l": "tab:blue", "r": "tab:orange"}
     for k, i in enumerate(picks):
         alpha = 0.35 + 0.65 * k / max(n - 1, 1)
@@ -772,7 +770,6 @@ def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 
     ax.set_ylabel("y (m)")
     ax.set_title(f"{title}: body frames (x red, y green) at {n} instants")
     ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig

@@ -29,11 +29,6 @@ import sys
 
 import numpy as np
 
-# run as a script, this file's folder leads sys.path, and the exporter beside it
-# (opensim.py) would shadow the opensim package
-_HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path[:] = [p for p in sys.path if os.path.abspath(p or os.curdir) != _HERE]
-
 
 def _table(path: str):
     import opensim as osim
@@ -157,4 +152,8 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
+    # run as a script, this file's folder leads sys.path, and the exporter beside it
+    # (opensim.py) would shadow the opensim package
+    _here = os.path.dirname(os.path.abspath(__file__))
+    sys.path[:] = [p for p in sys.path if os.path.abspath(p or os.curdir) != _here]
     sys.exit(main(sys.argv[1:]))
