@@ -37,9 +37,10 @@ from pdw_casadi.report.opensim import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
-                                reason="the opensim package is not installed "
-                                       "(pip install -e '.[opensim]')")
+#: the read-back tests need OpenSim (the export itself does not)
+needs_opensim = pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
+                                   reason="the opensim package is not installed "
+                                          "(pip install -e '.[opensim]')")
 
 POSITION_TOL = 1e-9  # m, the issue's bound
 ID_TOL = 1e-9  # N m (N), see the module docstring
@@ -71,7 +72,7 @@ def _fixed_point(problem):
     return res
 
 
-@pytest.fixture(scope="module", params=list(CASES))
+@pytest.fixture(scope="module", params=[pytest.param(c, marks=needs_opensim) for c in CASES])
 def exported(request, tmp_path_factory):
     """(problem, fixed point, export, OpenSim's read-back with inverse dynamics at every
     sample) of one case."""
@@ -221,3 +222,100 @@ def test_inverse_dynamics_tool_from_the_setup_file(exported):
     for j, c in enumerate(ref_cols[1:]):
         err = np.abs(rb["tool_data"][:, cols.index(c)] - ref[:, j + 1])
         assert np.median(err) < 1e-6, (c, np.median(err))
+
+
+# -- the commands (no OpenSim needed: they write the files) -------------------------------
+def _exported_files(out: Path, name: str) -> list[Path]:
+    return [out / f"{name}{suffix}" for suffix in
+            (".osim", ".mot", "_grf.sto", "_external_loads.xml", "_joint_torques.sto",
+             "_id_setup.xml")]
+
+
+def _run_command(main, argv) -> int:
+    """A command's exit code, whether it returns it or exits with it."""
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+def test_fixed_point_command_exports(tmp_path, capsys):
+    """``pdw-fixed-point --export opensim`` writes the files of two steps of its fixed
+    point: the pelvis advances by two step lengths along the slope."""
+    import json
+
+    from pdw_casadi.cli import fixed_point_main
+
+    out = tmp_path / "fp"
+    assert _run_command(fixed_point_main, ["--problem", "humanlike_6link", "--export",
+                                           "opensim", "--out", str(out)]) == 0
+    files = _exported_files(out, "humanlike_6link")
+    assert all(p.is_file() and p.stat().st_size > 0 for p in files)
+    assert "wrote OpenSim files" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    header, cols, data = read_storage(files[1])
+    assert header["inDegrees"] == "yes" and int(header["nRows"]) == len(data) > 100
+    slope = load_problem("humanlike_6link").slope
+    walked = (data[-1, cols.index("pelvis_tx")] - data[0, cols.index("pelvis_tx")]) \
+        / math.cos(slope)
+    assert walked == pytest.approx(2 * summary["step_length_m"], rel=1e-9)
+
+
+def test_simulate_command_exports_every_step(tmp_path, capsys):
+    import pandas as pd
+
+    from pdw_casadi.cli import simulate_main
+
+    out = tmp_path / "sim"
+    assert _run_command(simulate_main, ["--problem", "compass_gait", "--steps", "3",
+                                        "--export", "opensim", "--out", str(out)]) == 0
+    files = _exported_files(out, "compass_gait")
+    assert all(p.is_file() for p in files)
+    _, cols, data = read_storage(files[1])
+    t = pd.read_csv(out / "trajectory.csv").iloc[:, 0].to_numpy()
+    # one frame per distinct time of the trajectory (an impact's two samples are one)
+    assert len(data) == len(np.unique(t)) and data[-1, 0] == t.max()
+    assert cols == ["time", "pelvis_tilt", "pelvis_tx", "pelvis_ty", "hip_flexion_l",
+                    "hip_flexion_r"]
+
+
+def test_fit_command_exports_the_fitted_gait(tmp_path, capsys, monkeypatch):
+    """``pdw-fit --export opensim`` exports the gait of the fit's summary (compliance,
+    slope, fixed point); the fit itself is replaced by one whose answer is known: the
+    problem's fixed point, which differs from its initial state (Table 2)."""
+    import pdw_casadi.report.fit_report as fit_report
+    from pdw_casadi.cli import fit_main
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+
+    changed = load_problem("humanlike_6link")
+    fp = find_fixed_point(changed)
+    assert fp.converged
+    assert abs(fp.state[1] - fp.state[0] - (changed.initial_state["q2"]
+                                            - changed.initial_state["q1"])) > 1e-6
+
+    def fake_fit(problem_, human, opts, out, **kw):
+        comp, slope = changed.split_parameters(fp.parameters)
+        return {"compliance": comp, "slope": slope, "stable": True, "valid": True,
+                "fixed_point": dict(zip(changed.state_names, map(float, fp.state),
+                                        strict=True)),
+                "headline": "fake fit"}
+
+    monkeypatch.setattr(fit_report, "fit_and_report", fake_fit)
+    out = tmp_path / "fit"
+    assert _run_command(fit_main, ["--gait", "female_fast.csv", "--export", "opensim",
+                                   "--out", str(out)]) == 0
+    files = _exported_files(out, "humanlike_6link")
+    assert all(p.is_file() for p in files)
+    # the fitted gait, not the problem's: the first frame is the fixed point's section
+    _, cols, data = read_storage(files[1])
+    knee = -data[0, cols.index("knee_angle_l")]  # flexion of leg 1 (left) at the section
+    q1, q2 = fp.state[0], fp.state[1]
+    assert knee == pytest.approx(math.degrees(q2 - q1), abs=1e-9)
+
+
+def test_unknown_export_format_is_a_usage_error(tmp_path, capsys):
+    from pdw_casadi.cli import fixed_point_main
+
+    out = tmp_path / "fp"
+    assert _run_command(fixed_point_main, ["--export", "bvh", "--out", str(out)]) == 2
+    assert not out.exists()
