@@ -528,8 +528,8 @@ class Simulator:
         traj = self._trajectory(rec, records, ps) if record else None
         modes = None
         if record and rec:
-            modes = np.vstack([np.tile(np.asarray(mv, float).reshape(1, hs.nm), (len(ts), 1))
-                               for _, mv, ts, _, _ in rec])
+            modes = np.vstack([np.tile(np.asarray(c.mode_vector, float).reshape(1, hs.nm),
+                                       (len(c.times_s), 1)) for c in rec])
         return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode,
                                 sample_modes=modes)
 
