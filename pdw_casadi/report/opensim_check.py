@@ -34,7 +34,8 @@ def _table(path: str):
     import opensim as osim
 
     t = osim.TimeSeriesTable(path)
-    time = np.array([t.getIndependentColumn()[i] for i in range(t.getNumRows())])
+    column = t.getIndependentColumn()  # a copy per call: take it once
+    time = np.array([column[i] for i in range(t.getNumRows())])
     cols = [t.getColumnLabel(i) for i in range(t.getNumColumns())]
     data = t.getMatrix().to_numpy() if t.getNumRows() else np.zeros((0, len(cols)))
     return time, cols, np.asarray(data), t
