@@ -325,3 +325,22 @@ def test_unknown_export_format_is_a_usage_error(tmp_path, capsys):
     out = tmp_path / "fp"
     assert _run_command(fixed_point_main, ["--export", "bvh", "--out", str(out)]) == 2
     assert not out.exists()
+
+
+def test_the_slope_is_the_parameters(tmp_path):
+    """A gait on another slope than the problem file's (a fit may move it) is exported on
+    its own slope: the slope frame and the ground line of the centres of pressure."""
+    import re
+
+    problem = load_problem("compass_gait")
+    p = problem.parameter_vector()
+    p[problem.parameter_names.index("slope")] += 0.002
+    gamma = float(p[problem.parameter_names.index("slope")])
+    ex = export_gait(problem, problem.state_vector(), tmp_path, parameters=p, steps=2)
+    frame = re.search(r'<PhysicalOffsetFrame name="slope">.*?<orientation>([^<]+)'
+                      r'</orientation>', ex.model.read_text(), re.S)
+    assert float(frame.group(1).split()[2]) == -gamma
+    for s in SIDES:
+        on = np.abs(ex.samples.force[s]).sum(axis=1) > 0
+        height = ex.samples.cop[s][on] @ np.array([math.sin(gamma), math.cos(gamma)])
+        assert on.any() and np.abs(height).max() < 1e-9

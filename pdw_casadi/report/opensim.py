@@ -48,14 +48,11 @@ from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.model.hybrid import HybridSystem
 
 __all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "fitted_problem",
-           "joint_torques", "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
+           "plot_opensim_frames", "read_back", "read_storage", "skeleton"]
 
 SIDES = ("l", "r")
 #: the physical side of leg 1 (the stance leg at the section) in step k: left in even steps
 ROLE_SIDES = {0: ("l", "r"), 1: ("r", "l")}
-#: digits written per number: doubles round-trip through text (positions to 1e-9 m need
-#: about 12; 17 keep them exact)
-DIGITS = 17
 MOTION_HEADER_NOTE = ("Units are S.I. units (second, meters, Newtons, ...)\n"
                       "If the header above contains a line with 'inDegrees', this indicates "
                       "whether rotational values are in degrees (yes) or radians (no).\n")
@@ -106,14 +103,8 @@ class WalkerSkeleton:
     def rotational(self) -> list[bool]:
         return [n not in ("pelvis_tx", "pelvis_ty") for n in self.coordinate_names()]
 
-    def marker_names(self) -> list[str]:
-        names = ["hip"]
-        for s in SIDES:
-            names += [f"{m}_{s}" for seg in self.legs[s] for m, _ in seg.markers]
-        return names
 
-
-def _six_link_leg(a: dict, role: int) -> tuple[Segment, ...]:
+def _six_link_leg(a: dict) -> tuple[Segment, ...]:
     thigh, shank, foot = (("q2", "q3"), ("q1", "q4"), ("qf1", "qf2"))
     return (
         Segment("thigh", "hip", "hip_flexion", thigh, a["l_t"], a["m_t"], a["J_t"],
@@ -126,7 +117,7 @@ def _six_link_leg(a: dict, role: int) -> tuple[Segment, ...]:
     )
 
 
-def _kneed_leg(a: dict, role: int) -> tuple[Segment, ...]:
+def _kneed_leg(a: dict) -> tuple[Segment, ...]:
     l_t, l_s = a["a2"] + a["b2"], a["a1"] + a["b1"]
     return (
         Segment("thigh", "hip", "hip_flexion", ("q2", "q3"), l_t, a["m_t"], a["J_t"],
@@ -136,14 +127,14 @@ def _kneed_leg(a: dict, role: int) -> tuple[Segment, ...]:
     )
 
 
-def _compass_leg(a: dict, role: int) -> tuple[Segment, ...]:
+def _compass_leg(a: dict) -> tuple[Segment, ...]:
     leg = a["a"] + a["b"]
     return (Segment("leg", "hip", "hip_flexion", ("q_st", "q_sw"), leg, a["m"], 0.0,
                     (0.0, -a["b"]), markers=(("foot", (0.0, -leg)),)),)
 
 
-#: the toolkit's coordinate names -> (leg builder, contact body, the anthropometry key of
-#: the hip mass)
+#: the toolkit's coordinate names -> (the segments of one leg from its anthropometry, the
+#: body that touches the ground)
 _FAMILIES = {
     ("q1", "q2", "q3", "q4", "qf1", "qf2", "x_t1", "y_t1"): (_six_link_leg, "foot"),
     ("q1", "q2", "q3", "q4", "x_foot", "y_foot"): (_kneed_leg, "shank"),
@@ -151,17 +142,19 @@ _FAMILIES = {
 }
 
 
-def skeleton(problem, hs: HybridSystem) -> WalkerSkeleton:
-    """The OpenSim skeleton of ``problem``'s walker (per-leg anthropometry included)."""
+def skeleton(problem, hs: HybridSystem, slope: float | None = None) -> WalkerSkeleton:
+    """The OpenSim skeleton of ``problem``'s walker (per-leg anthropometry included) on a
+    slope of ``slope`` rad (default: the problem's)."""
     key = tuple(hs.model.q_names)
     if key not in _FAMILIES:
         raise ProblemError(f"{problem.name} ({problem.family}): no OpenSim export for a "
                            f"walker with coordinates {', '.join(key)}")
     build, contact = _FAMILIES[key]
     sides = {"l": "left", "r": "right"}
-    legs = {s: build(problem.leg_values(sides[s])[1], 1) for s in SIDES}
+    legs = {s: build(problem.leg_values(sides[s])[1]) for s in SIDES}
     m_h = problem.anthropometry["m_h"]
-    return WalkerSkeleton(problem.family, m_h, legs, contact, problem.slope, problem.g)
+    return WalkerSkeleton(problem.family, m_h, legs, contact,
+                          problem.slope if slope is None else float(slope), problem.g)
 
 
 # --------------------------------------------------------------------------------------
@@ -413,8 +406,8 @@ def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None
     if traj is None or traj.empty or result.sample_modes is None:
         raise ProblemError("the OpenSim export needs a recorded simulation (record=True) "
                            "with at least one sample")
-    sk = sk or skeleton(problem, hs)
     ps = [np.asarray(v, float).ravel() for v in p_steps]
+    sk = sk or skeleton(problem, hs, _slope(hs, ps[0]))
     maps = [_Maps(sk, hs, 0), _Maps(sk, hs, 1)]
     names = list(hs.model.q_names)
     nq = hs.nq
@@ -511,16 +504,17 @@ def sample(problem, result, hs: HybridSystem, p_steps, sk: WalkerSkeleton | None
                    pts, force, cop, free, TAU, list(phases[keep]))
 
 
-def joint_torques(samples: Samples) -> dict[str, np.ndarray]:
-    """The toolkit's joint torques by OpenSim coordinate name (N m; the pelvis
-    translations in N): what OpenSim's inverse dynamics with the exported loads gives."""
-    return {c: samples.tau[:, i] for i, c in enumerate(samples.coordinates)}
-
-
 # --------------------------------------------------------------------------------------
 # files
 # --------------------------------------------------------------------------------------
+def _slope(hs: HybridSystem, p) -> float:
+    """The slope (rad) in a parameter vector of ``hs``."""
+    return float(np.asarray(p, float).ravel()[list(hs.model.parameter_names).index("slope")])
+
+
 def _fmt(v: float) -> str:
+    """A number as the shortest text that reads back as the same double (positions and
+    forces round-trip exactly through the files)."""
     return repr(float(v)) if math.isfinite(v) else "nan"
 
 
@@ -641,7 +635,8 @@ def export_opensim(problem, result, out_dir, hs: HybridSystem, p_steps,
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     name = name or problem.name
-    sk = skeleton(problem, hs)
+    # the slope the gait walked on: the parameters' (a fit may have moved it)
+    sk = skeleton(problem, hs, _slope(hs, p_steps[0]))
     smp = sample(problem, result, hs, p_steps, sk)
     osim_path = out / f"{name}.osim"
     osim_path.write_text(model_xml(sk, name, credits=(
