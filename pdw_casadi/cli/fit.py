@@ -34,10 +34,8 @@ from pdw_casadi.model.problem import Problem, check_bounds
 def _fit_output(outputs: Outputs, opts) -> Path:
     """Create a fit's output folder and point IPOPT's log at a fresh ``ipopt.log`` in it."""
     out = outputs.create()
-    outputs.notes.append(f"the report files are written only at the end, into {out}")
-    log_file = out / "ipopt.log"
-    log_file.unlink(missing_ok=True)
-    opts.log_file = str(log_file)
+    outputs.notes.append(f"the report files are written only at the end, into {outputs.dir}")
+    opts.log_file = str(out / "ipopt.log")  # staged: an earlier run's log stays until the end
     return out
 
 
@@ -151,7 +149,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                      "ipopt.log"):
             outputs.wrote(out / name)
         print(summary["headline"])
-        print(f"wrote {out}")
+        print(f"wrote {outputs.dir}")
         if not (summary["stable"] and summary["valid"]):
             raise NoGait(f"no stable valid gait: {summary['headline']}")
         return 0
@@ -196,7 +194,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
         outputs.wrote(out / name)
     print(summary["headline"])
-    print(f"wrote {out}")
+    print(f"wrote {outputs.dir}")
     if not summary["accepted"]:
         raise NoGait(f"no stable valid stride: {summary['headline']}")
     return 0
