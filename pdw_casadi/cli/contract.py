@@ -324,7 +324,7 @@ class Outputs:
         if done:
             text = "wrote " + ", ".join(done)
         else:
-            text = f"nothing written (the files already in {self.dir} are untouched)"
+            text = f"nothing written to {self.dir}"  # its earlier files are untouched
         return "; ".join([text, *self.notes])
 
 

@@ -54,7 +54,7 @@ def scale_main(argv=None) -> int:
                         help="reference problem (default: %(default)s)")
     parser.add_argument("--out", type=output_path("--out"), required=True, metavar="FILE.toml")
     args = parser.parse_args(argv)
-    outputs = Outputs(args.out.parent if str(args.out.parent) else Path("."))
+    outputs = Outputs(args.out)  # one file, staged beside it
 
     def body() -> int:
         check_output_file(args.out, "--out", (".toml",))
