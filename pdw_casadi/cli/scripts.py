@@ -9,14 +9,22 @@ from __future__ import annotations
 
 import sys
 
-from pdw_casadi.cli import COMMANDS
 from pdw_casadi.engine import interrupt
 
 
 def _script(command: str):
-    def main() -> None:
+    def main(argv=None) -> None:
         interrupt.EXIT_AT_ONCE[0] = True
-        sys.exit(COMMANDS[command]())
+        with interrupt.handling():  # from the start: the imports below take seconds
+            try:
+                from pdw_casadi.cli import COMMANDS
+
+                code = COMMANDS[command](argv)
+            except KeyboardInterrupt as exc:  # before the command's own run() took over
+                print("interrupted: nothing written", file=sys.stderr, flush=True)
+                code = interrupt.EXIT_CODES.get(getattr(exc, "signum", 2), 130)
+                interrupt.exit_at_once(code)
+        sys.exit(code)
     main.__name__ = command.replace("-", "_")
     main.__doc__ = f"``pdw-{command}`` as a process (see the module docstring)."
     return main
@@ -29,3 +37,12 @@ sweep = _script("sweep")
 scale = _script("scale")
 design = _script("design")
 atlas = _script("atlas")
+
+
+def dispatch() -> None:
+    """``python -m pdw_casadi.cli COMMAND [options]`` as a process."""
+    from pdw_casadi.cli import COMMANDS, main
+
+    if len(sys.argv) < 2 or sys.argv[1] not in COMMANDS:
+        sys.exit(main())  # the usage error
+    _script(sys.argv[1])(sys.argv[2:])
