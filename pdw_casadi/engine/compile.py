@@ -15,6 +15,7 @@ CasADi function and converts its outputs, with identical results.
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import hashlib
 import os
@@ -67,6 +68,7 @@ def _usable_cache() -> Path | None:
     if not _FALLBACK:
         try:
             _FALLBACK.append(Path(tempfile.mkdtemp(prefix="pdw_casadi-cache-")))
+            atexit.register(shutil.rmtree, _FALLBACK[0], True)  # this run's only
         except OSError:
             _warn("cache", f"compile cache {base} unusable ({reason}) and no temporary "
                            f"directory: running the functions uncompiled (slower)")
