@@ -471,7 +471,7 @@ def make_cases(f: dict[str, str]) -> list[Case]:
         "scale": (["--mass", "60", "--height", "1.7"], [("start", 0.3), ("imports", 1.5),
                                                         ("continuation", "scaling")]),
         "design": (["--max-solves", "2"], [("start", 0.3), ("imports", 1.5),
-                                           ("solving", 30.0)]),
+                                           ("solving", 45.0)]),
         "atlas": (["--radius", "0.91", "--curves"], [("start", 0.3), ("imports", 1.5),
                                                      ("fitting", 20.0)]),
     }
@@ -576,6 +576,7 @@ def main(argv=None) -> int:
     ap.add_argument("-k", default="", help="only cases whose id contains this text")
     ap.add_argument("--list", action="store_true", help="list the case ids and stop")
     ap.add_argument("-v", "--verbose", action="store_true", help="one line per case")
+    ap.add_argument("--show", action="store_true", help="the stderr of unclean cases")
     ap.add_argument("--within", type=float, default=5.0,
                     help="seconds a signalled run may take to end (default: %(default)s)")
     args = ap.parse_args(argv)
@@ -602,6 +603,8 @@ def main(argv=None) -> int:
                 last = lines(o.stderr)[-1:] or [""]
                 print(f"{'ok ' if o.clean else 'BAD'} {case.id:45s} exit {o.code} "
                       f"{o.seconds:6.1f} s  {o.why}  | {last[0][:120]}", flush=True)
+                if args.show and not o.clean:
+                    print("    " + o.stderr.strip().replace("\n", "\n    "), flush=True)
         n = sum(o.clean for o in outcomes)
         per: dict[str, tuple[int, int]] = {}
         for o in outcomes:

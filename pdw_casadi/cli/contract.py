@@ -319,7 +319,8 @@ class Outputs:
     def describe(self) -> str:
         """What is on disk from this run, for the interruption line."""
         if not self.created:
-            return f"nothing written ({self.dir} untouched)"
+            return "nothing written" + (f" ({self.dir} untouched)" if str(self.dir) != "."
+                                        else "")
         done = [str(p) for p in self.committed if p.exists()]
         if done:
             text = "wrote " + ", ".join(done)

@@ -22,6 +22,7 @@ EXIT_AT_ONCE = [False]
 
 _pending: list[int] = []
 _deferred = [False]
+_depth = [0]
 
 
 class Interrupted(KeyboardInterrupt):
@@ -54,15 +55,19 @@ def _handler(signum, frame) -> None:
 def handling() -> Iterator[None]:
     """SIGINT and SIGTERM recorded and raised as :class:`Interrupted` inside the block (main
     thread only; elsewhere the block runs with the handlers it has)."""
-    _pending.clear()
+    if not _depth[0]:  # a nested block keeps a signal that came before it
+        _pending.clear()
     try:
         old = {s: signal.signal(s, _handler) for s in EXIT_CODES}
     except ValueError:  # not the main thread
         yield
         return
+    _depth[0] += 1
     try:
+        check()  # one that arrived before (and was swallowed on the way)
         yield
     finally:
+        _depth[0] -= 1
         for s, h in old.items():
             signal.signal(s, h)
 
