@@ -1,7 +1,8 @@
-"""The 6-link walker with passive ankle extensions (pdw_casadi/walkers/humanlike_6link_ankle.py):
-it is the paper's walker when the extensions are off, it stays passive when they are on
-(the energy balance of a step closes, every spring loss accounted for), its impacts are the
-paper's, and each element acts only where it is declared to."""
+"""The 6-link walker with passive ankle extensions
+(pdw_casadi/model/walkers/humanlike_6link_ankle.py): it is the paper's walker when the
+extensions are off, it stays passive when they are on (the energy balance of a step closes,
+every spring loss accounted for), its impacts are the paper's, and each element acts only
+where it is declared to."""
 
 from __future__ import annotations
 

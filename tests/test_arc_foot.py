@@ -1,4 +1,4 @@
-"""Rolling feet (pdw_casadi/walkers/humanlike_6link_arc.py): toe and heel arcs that roll
+"""Rolling feet (pdw_casadi/model/walkers/humanlike_6link_arc.py): toe and heel arcs that roll
 without slip where the 6-link walker pivots. With zero radii it is the ankle walker; with
 the shipped radii the rolling contacts hold (the foot's material point at the contact is at
 rest), the impacts are inelastic onto the rolling rows and the step stays passive."""

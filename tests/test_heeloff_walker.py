@@ -1,4 +1,4 @@
-"""The forefoot rocker (pdw_casadi/walkers/humanlike_6link_heeloff.py): the stance heel lifts
+"""The forefoot rocker (pdw_casadi/model/walkers/humanlike_6link_heeloff.py): the stance heel lifts
 where the centre of pressure reaches the stance toe, without an impact, and the stance foot
 then pivots on its toe (phase II_toe) until the swing heel strikes. A gait whose heel never
 lifts is the ankle walker's; the toe-rocker phase is passive (its energy balance closes at

@@ -61,9 +61,9 @@ def test_energy_conserved_within_each_phase_without_dampers(problem, hs, impact_
     # phase III from the (Table 2) heel-strike state, dampers off, both springs engaged
     x_post = hs.impact["heel_strike"](impact_states["heel_strike"], p)[3].full().ravel()
     rec: list = []
-    x_end, _, dt, ev, fail = sim.run_phase("III", x_post, p, dict(BOTH_ENGAGED), 0.0, rec, Plan())
-    assert fail is None and ev.name == "foot_strike" and dt > 0.005
-    X = np.hstack([x_post[:, None]] + [chunk[3] for chunk in rec])
+    end = sim.run_phase("III", x_post, p, dict(BOTH_ENGAGED), 0.0, rec, Plan())
+    assert end.failure is None and end.event.name == "foot_strike" and end.duration_s > 0.005
+    X = np.hstack([x_post[:, None]] + [chunk.states for chunk in rec])
     mv = [float(BOTH_ENGAGED[k]) for k in hs.mode_keys]
     e = _total_energy(hs, X, p, mv)
     assert np.ptp(e) <= 1e-8 * abs(e[0])

@@ -36,7 +36,7 @@ HALF_WIDTH = {"humanlike_6link": 5e-5, "humanlike_6link_ankle": 5e-5,
               **{n: 5e-5 for n in STUDY_VARIANTS}}
 #: problems whose shipped gait is a fixed point outside its gait pattern (measured): the
 #: margin that breaks. The forefoot rocker's heel-off gait: phase I's centre of pressure
-#: 0.17 mm beyond the leading foot's heel margin (README, "The forefoot rocker")
+#: 0.17 mm beyond the leading foot's heel margin (docs/results/timing.md, "The forefoot rocker")
 INVALID_START = {"humanlike_6link_heeloff": "I:min_copmargin_foot1"}
 #: the walkers with the ankle extensions (fitted gaits on a validity bound, fits of minutes)
 ANKLE_WALKERS = ("humanlike_6link_ankle", "humanlike_6link_heeloff", "humanlike_6link_arc")
@@ -137,7 +137,7 @@ FIT_TINY_FAILS = {
     "humanlike_6link_ankle_clutch": "IPOPT needs more than 60 iterations (the study: 1000)",
     "humanlike_6link_ankle_load": "IPOPT needs more than 60 iterations (the study: 1000)",
     "humanlike_6link_arc": "IPOPT needs more than 60 iterations (the fit from the shipped "
-                           "gait: 232, README 'Rolling feet')",
+                           "gait: 232, docs/results/timing.md)",
     "humanlike_6link_ankle_ds": "IPOPT needs more than 60 iterations from the shipped "
                                 "8.66 % double-support gait without the timing target "
                                 "(measured)",

@@ -15,10 +15,10 @@ disk. They share:
 - :func:`pdw_casadi.engine.jsonio.write_json`: JSON output with numpy scalars/arrays, paths and
   non-finite floats (written as ``null``) handled.
 
-Adding a command: write ``foo_main(argv=None)`` that builds a :class:`Parser` with
-``parents=[common_parser()]``, validates in a ``body()`` before ``outputs.create()`` and
-returns ``run(outputs, body)``; add it to :data:`COMMANDS` (``python -m pdw_casadi.cli foo
-...`` then works too).
+Adding a command: write ``foo_main(argv=None)`` that builds a
+:class:`~pdw_casadi.cli.contract.Parser` with ``parents=[common_parser()]``, validates in a
+``body()`` before ``outputs.create()`` and returns ``run(outputs, body)``; add it to
+:data:`COMMANDS` (``python -m pdw_casadi.cli foo ...`` then works too).
 """
 
 from __future__ import annotations

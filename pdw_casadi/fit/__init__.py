@@ -2,9 +2,11 @@
 
 - :mod:`.options`: :class:`FitOptions`, every setting;
 - :mod:`.objective`: 1 - R^2 on the multiple-shooting grid;
-- :mod:`.stability`: the stability row (spectral-radius bound of the NLP step, exact gradient);
-- :mod:`.driver`: the IPOPT driver and its progress lines;
+- :mod:`.driver`: the fit's NLP on the shared IPOPT driver (:mod:`pdw_casadi.nlp.driver`),
+  with the stability row of :mod:`pdw_casadi.nlp.stability` (spectral-radius bound of the NLP
+  step, exact gradient) and its progress lines;
 - :mod:`.starts`: the gait atlas and the choice of starts;
+- :mod:`.atlas`: building a walker's gait atlas (``pdw-atlas``);
 - :mod:`.result`: solves, candidates, checks;
 - :mod:`.core`: :func:`fit_gait`;
 - :mod:`.stride_objective`, :mod:`.stride_fit`: :func:`fit_stride`, each leg to its own

@@ -41,9 +41,7 @@ class FitOptions:
     stability_power: int = 64
     multistart: int = 1
     #: starts whose curves fit the user's within this much mean R^2 of the best count as
-    #: equally good; of those the most stable goes first (measured on the five bench files:
-    #: from the bundled cohort's rho 0.86 entry all five converge, from its rho 0.91 twin,
-    #: R^2 0.0002 apart, four)
+    #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)
     start_r2_tolerance: float = 0.01
     atlas: str | None = None
     max_iter: int = 300
@@ -53,8 +51,7 @@ class FitOptions:
     consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
     sample_stride: int = 2  # RK4 samples between checked event signs and margins
     #: every segment may grow this much (s) beyond its starting duration plus one interval
-    #: (its shooting intervals bound it); 0.015 s did not help WBDS20 and costs 14 % more
-    #: unknowns (measured on that one file)
+    #: (its shooting intervals bound it; docs/results/fit-settings.md)
     segment_headroom_s: float = 0.0
     #: weight of the optional timing target (0: off, pdw-fit --timing): the objective adds
     #: timing_weight ((stance % - the human toe-off %) / 10 %)^2, the model's stance in % of

@@ -51,15 +51,11 @@ class StrideFitOptions(FitOptions):
     ``side``: whose compliance is free, "both" (each leg its own), "left" or "right" (the
     other leg keeps the start's); ``start``: "fit" (the symmetric step fit to the mean of
     both sides first, then repeated twice) or "atlas" (the atlas or problem gait that fits
-    that mean best, as the step fit picks it, repeated twice; no extra solve). Measured on
-    one file (``pdw-fit --gait data/subjects/WBDS09_fast_sides.csv``, both legs free, 2
-    shared cores): from "fit" the stride NLP ends Solve_Succeeded in 110 iterations at
-    objective 0.8493 (478 s in all), from "atlas" in 72 at 0.8526 (280 s); so "fit", the
-    better answer and the meaningful comparison (what per-leg compliance adds to the best
-    symmetric fit), is the default. Both runs first leave the feasible region (infeasibility
-    0.2 to 0.4 near iteration 10) and come back. ``max_radius`` stays the per-step value:
-    the stride's verdict is ``max_radius``^2, its NLP bound (``max_radius`` -
-    ``radius_margin``)^2.
+    that mean best, as the step fit picks it, repeated twice; no extra solve). "fit" is the
+    default: the meaningful comparison (what per-leg compliance adds to the best symmetric
+    fit), and the better answer where both were measured (``docs/results/per-leg-fit.md``).
+    ``max_radius`` stays the per-step value: the stride's verdict is ``max_radius``^2, its
+    NLP bound (``max_radius`` - ``radius_margin``)^2.
     """
 
     side: str = "both"

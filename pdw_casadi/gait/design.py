@@ -10,7 +10,9 @@ equations Newton takes minimum-norm steps (least change of x and u), with a back
 search on the residual norm; every Jacobian is exact (AD through the map).
 
 Two uses: the prosthesis design (the prosthetic leg's compliance that makes the gait
-symmetric, :func:`symmetric_design`) and carrying a gait onto a new body with the compliance
+symmetric: :func:`solve_design` and :func:`continue_design` with
+:func:`symmetry_conditions`, driven by :func:`pdw_casadi.studies.prosthesis.design_prosthesis`)
+and carrying a gait onto a new body with the compliance
 adapted (:func:`pdw_casadi.studies.scaling.walker_for_subject`).
 """
 

@@ -12,6 +12,7 @@ f(tau) dtau/dz. The same chain gives the derivative of the step time.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -123,13 +124,14 @@ class _Sensitivities:
                 f"check_jac_{name}", [xm, pm], [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
 
 
-_SENS: dict[int, _Sensitivities] = {}
+#: one set of sensitivity functions per hybrid system, kept only while the system lives
+_SENS: weakref.WeakKeyDictionary[HybridSystem, _Sensitivities] = weakref.WeakKeyDictionary()
 
 
 def _sens(hs: HybridSystem) -> _Sensitivities:
-    if id(hs) not in _SENS:
-        _SENS[id(hs)] = _Sensitivities(hs)
-    return _SENS[id(hs)]
+    if hs not in _SENS:
+        _SENS[hs] = _Sensitivities(hs)
+    return _SENS[hs]
 
 
 class PoincareMap:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -171,6 +172,30 @@ class SimulationResult:
         return self.trajectory if self.trajectory is not None else pd.DataFrame()
 
 
+class TraceChunk(NamedTuple):
+    """A run of recorded samples of one phase in one mode: the states as columns."""
+
+    phase: str
+    mode_vector: list
+    times_s: np.ndarray
+    states: np.ndarray  # full states x = [q; qd; W], one column per sample
+    step: int
+
+
+@dataclass
+class PhaseEnd:
+    """How a phase ended: the state and mode there, its duration (s), the event that ended it
+    (None when none did), a failure reason (None for a guard reached) and, for a numerical
+    blow-up, what diverged (``failure`` is then :data:`DIVERGENCE`)."""
+
+    x: np.ndarray
+    mode: dict
+    duration_s: float
+    event: object | None
+    failure: str | None = None
+    divergence: str | None = None
+
+
 @dataclass
 class _PhaseRun:
     """What the phases of one step accumulate, passed from phase to phase (never kept on the
@@ -252,8 +277,9 @@ class Simulator:
             tau = new
         return tau
 
-    def run_phase(self, phase, x, p, mode, t0, rec, plan, run: _PhaseRun | None = None):
-        """Integrate one phase from x until its guard; returns (x_end, mode, t, event, fail).
+    def run_phase(self, phase, x, p, mode, t0, rec, plan,
+                  run: _PhaseRun | None = None) -> PhaseEnd:
+        """Integrate one phase from x until its guard (:class:`PhaseEnd`).
 
         ``run``: the step's accumulator (mode switches, disengagement losses); default: a
         fresh one for step 0."""
@@ -265,7 +291,7 @@ class Simulator:
         mva = np.array(mv)  # for the compiled calls (a list costs a conversion per call)
         x = np.asarray(x, float).ravel()
         if rec is not None:
-            rec.append((phase, mv, np.array([t0]), x.reshape(-1, 1), run.step))
+            rec.append(TraceChunk(phase, mv, np.array([t0]), x.reshape(-1, 1), run.step))
         enabled = np.array([e.enabled(mode) for e in evs])
         events, step = hs.events[phase].np, hs.step[phase].np
         g_prev = events(x, p, mva).ravel()
@@ -292,7 +318,7 @@ class Simulator:
                 cols = np.flatnonzero(mask.any(axis=0))
             if len(cols) == 0:
                 if rec is not None:
-                    rec.append((phase, mv, t0 + t + h * np.arange(1, K + 1), X, run.step))
+                    rec.append(TraceChunk(phase, mv, t0 + t + h * np.arange(1, K + 1), X, run.step))
                 x, g_prev = X[:, -1], G[:, -1]
                 armed |= (G > arm[:, None]).any(axis=1)
                 t += K * h
@@ -301,15 +327,15 @@ class Simulator:
                     # a blown-up state (NaN compares False) crosses no event: not a walker
                     if not np.abs(x[:nq2]).max() <= Q_LIMIT \
                             and _diverged_column(x[:, None], hs.nq, 0) is not None:
-                        return x, mode, t, None, _divergence_detail(x, hs)
-                    return x, mode, t, None, "guard_not_reached"
+                        return PhaseEnd(x, mode, t, None, DIVERGENCE, _divergence_detail(x, hs))
+                    return PhaseEnd(x, mode, t, None, "guard_not_reached")
                 continue
             hit_k = int(cols[0])
             hits = np.flatnonzero(mask[:, hit_k])
             x_before = X[:, hit_k - 1] if hit_k > 0 else x
             if rec is not None and hit_k > 0:
-                rec.append((phase, mv, t0 + t + h * np.arange(1, hit_k + 1), X[:, :hit_k],
-                            run.step))
+                rec.append(TraceChunk(phase, mv, t0 + t + h * np.arange(1, hit_k + 1),
+                                      X[:, :hit_k], run.step))
             t += hit_k * h
             n_full += hit_k
             taus = [(self._locate(phase, x_before, p, mva, i, h, float(Gp[i, hit_k]),
@@ -321,20 +347,20 @@ class Simulator:
             ev = evs[idx]
             sign = 1 if Gp[idx, hit_k] < 0 else -1  # crossing direction
             if rec is not None:
-                rec.append((phase, mv, np.array([t0 + t]), x_e[:, None], run.step))
+                rec.append(TraceChunk(phase, mv, np.array([t0 + t]), x_e[:, None], run.step))
             plan.items.append(Segment(phase, tuple(mv), n_full, h, tau, int(idx), sign))
             n_full = 0
             if not np.abs(x_e[:nq2]).max() <= Q_LIMIT \
                     and _diverged_column(x_e[:, None], hs.nq, 0) is not None:
-                return x_e, mode, t, None, _divergence_detail(x_e, hs)
+                return PhaseEnd(x_e, mode, t, None, DIVERGENCE, _divergence_detail(x_e, hs))
             if ev.kind == FAILURE:
-                return x_e, mode, t, ev, ev.name
+                return PhaseEnd(x_e, mode, t, ev, ev.name)
             if ev.kind == GUARD:
                 if ev.require is not None:
                     req = float(hs.require[phase].np(x_e, p, mva)[idx, 0])
                     if req <= 0:
-                        return x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid"
-                return x_e, mode, t, ev, None
+                        return PhaseEnd(x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid")
+                return PhaseEnd(x_e, mode, t, ev)
             # SWITCH: new mode, continue the phase from the event state
             if ev.indicator:
                 mode = {**mode, ev.indicator: 1.0 if sign > 0 else 0.0}
@@ -404,8 +430,10 @@ class Simulator:
             step_margins: dict[str, float] = {}
             while True:
                 n_rec = len(rec) if rec is not None else 0
-                x_end, mode, dt, ev, fail = self.run_phase(phase, x, p, mode, t, rec, sr.plan,
-                                                           run)
+                end = self.run_phase(phase, x, p, mode, t, rec, sr.plan, run)
+                x_end, mode, dt, ev, fail = end.x, end.mode, end.duration_s, end.event, \
+                    end.failure
+                divergence = end.divergence
                 for ph, name, te in run.switches:
                     event_rows.append({"step": k, "phase": ph, "event": name, "t": te,
                                        "kind": "switch"})
@@ -417,12 +445,11 @@ class Simulator:
                     # a physical failure only counts if the energy balance still holds
                     drift = self._drift(sr, run, x_end, p, mode, w0)
                     if drift is not None:
-                        fail = (f"{DIVERGENCE}: the energy balance is off by {drift:.3g} J "
-                                f"when '{fail}' was reached; {_ADVICE}")
-                if fail is not None and fail.startswith(DIVERGENCE):
-                    detail = fail[len(DIVERGENCE) + 2:]
-                    fail = DIVERGENCE
-                    failure = Failure(fail, k, t, phase, detail)
+                        divergence = (f"the energy balance is off by {drift:.3g} J when "
+                                      f"'{fail}' was reached; {_ADVICE}")
+                        fail = DIVERGENCE
+                if divergence is not None:
+                    failure = Failure(fail, k, t, phase, divergence)
                     event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
                                        "kind": "failure"})
                     x = x_end
@@ -484,7 +511,7 @@ class Simulator:
             if progress is not None:
                 progress(k + 1)
             if max_samples is not None and rec is not None:
-                n_samples += sum(e[3].shape[1] for e in rec[n_counted:])
+                n_samples += sum(e.states.shape[1] for e in rec[n_counted:])
                 n_counted = len(rec)
             if max_samples is not None and rec is not None and k + 1 < steps \
                     and n_samples > max_samples:
@@ -509,7 +536,8 @@ class Simulator:
 
     def _phase_margins(self, phase, rec, n_rec, p, margins, t0, dt):
         """Smallest value of each validity margin of a phase (contact forces in N, CoP
-        margins and clearances in m), over the samples its :class:`Margin` counts."""
+        margins and clearances in m), over the samples its
+        :class:`~pdw_casadi.model.margins.Margin` counts."""
         if rec is None:
             return
         specs = self.hs.phase_margins[phase]
@@ -517,12 +545,12 @@ class Simulator:
         i = 0
         while i < len(entries):
             # one call for each run of entries in the same mode (not one per chunk)
-            ph, mv = entries[i][0], entries[i][1]
+            ph, mv = entries[i].phase, entries[i].mode_vector
             j = i + 1
-            while j < len(entries) and entries[j][0] == ph and entries[j][1] == mv:
+            while j < len(entries) and entries[j].phase == ph and entries[j].mode_vector == mv:
                 j += 1
-            ts = np.concatenate([e[2] for e in entries[i:j]])
-            X = np.hstack([e[3] for e in entries[i:j]])
+            ts = np.concatenate([e.times_s for e in entries[i:j]])
+            X = np.hstack([e.states for e in entries[i:j]])
             i = j
             out = self.hs.outputs[ph](X, p, mv).full()
             for row, name, spec in specs:
@@ -535,7 +563,7 @@ class Simulator:
         hs = self.hs
         q_names = _q_names(hs)
         frames = []
-        for ph, mv, ts, X, k in rec:
+        for ph, mv, ts, X, k in rec:  # TraceChunk fields
             out = hs.outputs[ph](X, ps[k % len(ps)], mv).full()
             data = {"t": ts, "step": k, "phase": ph}
             for j, n in enumerate(q_names):
@@ -576,7 +604,7 @@ def _divergence_detail(x, hs) -> str:
         i, j = int(np.argmax(np.abs(q))), int(np.argmax(np.abs(qd)))
         what = (f"absurd state ({names[i]} = {q[i]:.3g}, d{names[j]} = {qd[j]:.3g}; limits "
                 f"|q| <= {Q_LIMIT:g}, |dq| <= {QD_LIMIT:g})")
-    return f"{DIVERGENCE}: {what}; {_ADVICE}"
+    return f"{what}; {_ADVICE}"
 
 
 def _q_names(hs) -> list[str]:

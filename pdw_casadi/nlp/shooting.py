@@ -78,7 +78,8 @@ class SegmentSpec:
 
 def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
                        headroom_s: float = 0.0) -> list[SegmentSpec]:
-    """Segment layout of one step from a simulator plan (see :class:`Plan`).
+    """Segment layout of one step from a simulator plan
+    (see :class:`~pdw_casadi.gait.simulate.Plan`).
 
     ``headroom_s`` (s): every segment gets intervals enough to grow by this much beyond its
     starting duration (besides one interval of headroom): a segment's duration is bounded

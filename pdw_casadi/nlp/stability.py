@@ -35,6 +35,7 @@ walker and phase). No finite differences, no nested Newton.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import casadi as ca
@@ -101,13 +102,15 @@ class _Blocks:
     section: tuple  # (fwd, adj)
 
 
-_BLOCKS: dict = {}
+#: the blocks of each hybrid system (per sub-step count), kept only while the system lives
+_BLOCKS: weakref.WeakKeyDictionary[HybridSystem, dict[int, _Blocks]] = \
+    weakref.WeakKeyDictionary()
 
 
 def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
-    key = (id(hs), n_sub)
-    if key in _BLOCKS:
-        return _BLOCKS[key]
+    per_system = _BLOCKS.setdefault(hs, {})
+    if n_sub in per_system:
+        return per_system[n_sub]
     model = hs.model
     nx, npar, nm = hs.nx, hs.np, hs.nm
     ns = len(model.state_names)
@@ -176,7 +179,7 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
         last={tr.name: vm_pair(f"zlast_{tr.name}") for tr in hs.model.transitions
               if tr.ends_step},
         section=pair("zsec"))
-    _BLOCKS[key] = blocks
+    per_system[n_sub] = blocks
     return blocks
 
 
@@ -196,7 +199,7 @@ def _named(f: ca.Function) -> dict[str, ca.Function]:
 
 class StabilityRow:
     """rho_q of the NLP step's Poincare Jacobian as a function of the NLP unknowns ``w``
-    (see the module docstring): :meth:`value`, :meth:`gradient` (exact), :meth:`jacobian`.
+    (see the module docstring): :meth:`value`, :meth:`gradient` (exact), :meth:`poincare_jacobian`.
 
     ``nlp`` is a :class:`~pdw_casadi.nlp.shooting.ShootingNLP`; all its segments must use the
     same number of RK4 steps per interval. The last forward sweep is cached, so the gradient

@@ -25,36 +25,11 @@ reached in ``mass_steps`` homotopy steps, each warm-started from the last, and e
 is checked by re-simulation on the stride map (fixed point, spectral radius, validity,
 asymmetry).
 
-What caps it (measured from the atlas gait ``humanlike_6link-own-rho0.86``, see
-``pdw-design --diagnose``): the NLP keeps the gait pattern (event order)
-of the gait it starts from, and in both steps of this gait the swing knee's spring engages
-(at theta_eq) a few ms before the stance knee's disengages (at theta_dis). As the leg gets
-lighter the two events close in: at 4 % the sign rows of the stance-knee disengagement in
-the segment before the swing-knee engagement bind in both steps (multipliers 164 and 2.7,
-with the swing toe's clearance, 11); at 5 % (mass distribution free) the segment between
-them is at its 1 ms floor in step 0 (1.4 ms in step 1). Beyond (5.5 %, 6 %) IPOPT does
-not converge in 100 iterations: inf_pr stays at 1e-2 to 1 while inf_du grows to
-1e8..1e13 and the multipliers of those rows to 1e7..1e8, the mark of a locally
-infeasible NLP. The simulator at the
-lighter mass with the last compliance takes the other order and fails (the stance foot's
-centre of pressure reaches the toe: the swing knee never engages). Designing the
-prosthesis's mass distribution and then freeing the slope move the cap to 8 %, where phase
-I and both knee-event segments are at their 1 ms floors, the foot's inertia and COM at
-their bounds and both swing toes' clearances bind; 8.5 % does not converge. With a 0.9 %
-symmetry tolerance it reaches 11.69 %; from 8 % on, every converged solve has the stability
-row on its bound. The ankle walker's elements on the prosthetic foot (rest angle, heel
-damper, clutch spring: the per-leg ankle walker), a more stable start gait and the
-long-double-support gait were measured not to move the cap (README, "Prosthetic leg").
-
-Those caps hold with the sound leg's compliance fixed. With the sound leg adapting as well
-(``DesignNLPOptions.free_sound``, least relative change from its start values) and solves
-stopped at the iteration limit accepted when their re-simulation is stable, valid and
-symmetric (``accept_verified``), the compliance-only design from the same atlas gait reaches
-28.90 % lighter with equal steps (shipped as ``data/designs/humanlike_6link_prosthesis29.toml``):
-among the sound leg's changes its knee spring engages and releases earlier, the events
-whose order capped the design above. With a 0.9 % symmetry tolerance as well it reaches 30 %
-(``data/designs/humanlike_6link_prosthesis30.toml``: stride radius 0.800, valid, both
-asymmetries -0.90 %), the stability row on its bound.
+The design keeps the gait pattern (event order) of the gait it starts from. How far each
+variant gets (the sound leg fixed or adapting, the mass distribution and the slope free, a
+symmetry tolerance), what caps it and the shipped designs
+(``data/designs/humanlike_6link_prosthesis{29,30}.toml``) are measured in
+``docs/results/prosthesis.md``, each with its ``pdw-design`` command.
 """
 
 from __future__ import annotations
@@ -87,9 +62,8 @@ from pdw_casadi.model.problem import Problem, ProblemError
 
 #: the prosthetic leg's compliance left free by default (the angles stay)
 FREE = ("k_ankle", "c_ankle", "k_knee", "c_knee_flex", "c_knee_ext", "c_knee_stance")
-#: the prosthetic leg's compliance the NLP design leaves free by default: all eight (measured,
-#: pdw-design: with the knee-spring angles held the design stops at 1.5 %
-#: lighter, where phase I reaches its 1 ms floor in both steps; with them free it passes)
+#: the prosthetic leg's compliance the NLP design leaves free by default: all eight (the
+#: knee-spring angles too: docs/results/prosthesis.md, "Homotopy settings, measured")
 NLP_FREE = FREE + ("theta_eq", "theta_dis")
 #: the body values of a lighter shank and foot
 LIGHTER_KEYS = ("m_s", "J_s", "m_f", "J_f")
@@ -224,21 +198,16 @@ class DesignNLPOptions:
     step is ``first_step`` (a fraction of the mass), a solved step doubles the next (at most
     ``max_step``), a failed one is retried at half the size (down to ``min_step``), at most
     ``max_solves`` NLP solves; ``first_step`` >= ``lighter`` solves the target directly.
-    Measured from the bundled atlas gait (``pdw-design``): the gaits there
-    are so sensitive to the shank mass (a 0.1 % lighter leg raises the stride radius
-    from 0.69 to 1.05 at the sound compliance) that a 10 % first step does not converge in
-    300 iterations, a 0.3 % one in 12 (six compliance values free).
     ``symmetry_tol_pct``: the largest accepted |step-length| and |step-time asymmetry| in
-    the NLP, % (0: equal; below the verdict's 1 %). Measured on one case (continuing the
-    8 % design with the mass distribution and the slope free,
-    pdw-design): 0.9 reaches 11.69 % lighter, 0 stops at 8 %; with the
-    sound leg adapting (``free_sound``, all eight keys, ``accept_verified``, from the atlas
-    gait) 0.9 reaches 30 %, 0 stops at 28.9 %.
+    the NLP, % (0: equal; below the verdict's 1 %).
     Stability: the NLP bounds the smooth bound rho_32 (>= the spectral radius) of the
     stride Jacobian by ``max_stride_radius - radius_margin``; the re-simulated stride
     radius is the verdict (<= ``max_stride_radius``; 0.81 = 0.9 per step). IPOPT:
     ``max_iter``, ``tol``, ``hessian``; ``sample_stride`` as in
     :class:`~pdw_casadi.fit.FitOptions`.
+
+    How the defaults were chosen (measured first steps, tolerances, floors and freedoms):
+    ``docs/results/prosthesis.md``, "Homotopy settings, measured".
     """
 
     first_step: float = 0.003
@@ -248,29 +217,24 @@ class DesignNLPOptions:
     symmetry_tol_pct: float = 0.0
     max_stride_radius: float = 0.81
     radius_margin: float = 0.01
-    max_iter: int = 100  # a homotopy step that solves takes ~10-30 (measured)
+    max_iter: int = 100  # IPOPT iterations per homotopy step
     tol: float = 1e-6
     hessian: str = "limited-memory"
     sample_stride: int = 2
     headroom_s: float = 0.0
     #: shortest segment (s): the event order is the NLP's gait pattern (ShootingNLP.bounds);
-    #: a modelling floor, not a physical one. Measured on one case (6 % from the 5 %
-    #: mass-distribution design): 1e-4 s instead of 1e-3 s still stops at 100 iterations
+    #: a modelling floor, not a physical one
     t_min_s: float = 1e-3
     #: the prosthetic leg's body values designed beside its compliance (among l_sc, J_s,
     #: l_fc, J_f: where a prosthetist places the mass; the masses stay (1 - lighter) x the
     #: sound leg's), each within ``mass_distribution_bounds`` x the sound leg's value and
     #: counted in the least-change objective like the compliance; () : the inertias scale
-    #: with the mass and the COM positions stay the sound leg's. Measured on one case
-    #: (continuing the 4 % compliance-only design): with all four free 5 % solves (44
-    #: iterations; compliance only, 5.5 % stops at 100), 6 % does not
+    #: with the mass and the COM positions stay the sound leg's
     mass_distribution: tuple = ()
     mass_distribution_bounds: dict = field(default_factory=lambda: dict(
         l_sc=(0.6, 1.3), J_s=(0.3, 1.5), l_fc=(0.5, 1.5), J_f=(0.3, 1.5)))
     #: the slope free too (the walker's energy supply; shared by both legs, not in the
-    #: objective; bounds of ShootingNLP.bounds). Measured on one case (continuing the 5 %
-    #: mass-distribution design): 6 % solves (42 iterations, slope 0.1484 -> 0.1458 rad;
-    #: without it 6 % stops at 100), then 8 % (36); 8.5, 9, 10 and 12 % stop at 100
+    #: objective; bounds of ShootingNLP.bounds)
     free_slope: bool = False
     #: the sound leg's compliance keys that adapt too (the whole gait adapts to the
     #: prosthesis, as an amputee's does), counted in the least-change objective as relative

@@ -104,7 +104,7 @@ class PlanarSystem:
     def constrained_dynamics(self, contact: ContactSet | None, F_q):
         """Solve eq. (12): accelerations qdd and multipliers lambda (forces along the rows).
 
-        The KKT system [M_q -E^T; E 0] [qdd; lambda] = [F_q; -Edot qd] is solved exactly,
+        The KKT system ``[M_q -E^T; E 0] [qdd; lambda] = [F_q; -Edot qd]`` is solved exactly,
         but by structure instead of one dense symbolic solve (the dense 13x13 solve was 80 %
         of the right-hand side's operations): a row whose Jacobian has a single entry
         (x_t1, y_t1, l_f cos qf1) fixes that coordinate's acceleration directly; the rest is
