@@ -12,6 +12,7 @@ from pdw_casadi.cli.contract import (
     UsageError,
     finite_float,
     int_range,
+    output_path,
 )
 from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.model.problem import Problem, check_bounds, load_overrides, load_problem
@@ -52,7 +53,7 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     g.add_argument("--compliance", type=Path, metavar="FILE",
                    help="JSON/TOML table of compliance overrides, e.g. {\"k_knee\": 120}; "
                         "the problem's compliance_bounds apply")
-    g.add_argument("--out", type=Path, required=out_default is None, metavar="DIR",
+    g.add_argument("--out", type=output_path("--out"), required=out_default is None, metavar="DIR",
                    default=None if out_default is None else Path(out_default),
                    help="output directory (created if missing)"
                         + ("" if out_default is None else " (default: %(default)s)"))
@@ -175,4 +176,5 @@ def write_exports(args: argparse.Namespace, outputs: Outputs, export) -> None:
     for path in ex.to_dict().values():
         outputs.wrote(Path(path))
     print(f"wrote OpenSim files {ex.model.name}, {ex.motion.name}, {ex.forces.name}, "
-          f"{ex.external_loads.name} ({len(ex.samples.time)} frames) in {ex.model.parent}")
+          f"{ex.external_loads.name} ({len(ex.samples.time)} frames) in "
+          f"{outputs.final(ex.model).parent}")

@@ -106,14 +106,14 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
               f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
               f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
         print(f"eigenvalues: {ev}")
-        print(f"wrote {out}" + (f" ({wall:.2f} s)" if wall is not None else ""))
+        print(f"wrote {outputs.dir}" + (f" ({wall:.2f} s)" if wall is not None else ""))
         if not res.converged:
             why = (f"|P(x) - x| = {res.residual:.3g} > {args.tol:g}"
                    f"{', ' + str(res.failure) if res.failure else ''}"
                    if math.isfinite(res.residual) else
                    f"the walker fails in the first step from it: {res.failure}")
             raise NoGait(f"no fixed point of {problem.name} near its initial state ({why}); "
-                         f"the summary is in {out / 'summary.json'}")
+                         f"the summary is in {outputs.dir / 'summary.json'}")
         return 0
 
     return run(outputs, body)

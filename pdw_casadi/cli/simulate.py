@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +23,7 @@ from pdw_casadi.cli.contract import (
     Parser,
     check_output_file,
     int_range,
+    output_path,
     run,
 )
 from pdw_casadi.engine.jsonio import write_json
@@ -110,7 +110,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                         metavar="K",
                         help="stick-figure snapshots of the first step, 2..100 "
                              "(default: %(default)s)")
-    parser.add_argument("--animate", type=Path, metavar="FILE.gif",
+    parser.add_argument("--animate", type=output_path("--animate"), metavar="FILE.gif",
                         help="also write an animated GIF of the walker walking down the slope "
                              "over all simulated steps")
     parser.add_argument("--fps", type=int_range("--fps", 1, 100), default=25, metavar="F",
@@ -163,7 +163,8 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         if args.animate is not None and not traj.empty:
             from pdw_casadi.report.animation import animate_walk
 
-            animate_walk(sim.hs, result, p, outputs.wrote(args.animate), fps=args.fps,
+            animate_walk(sim.hs, result, p, outputs.wrote(outputs.staged(args.animate)),
+                         fps=args.fps,
                          title=f"{problem.name}: {result.completed_steps} steps down a slope "
                                f"of {problem.slope:.4f} rad")
         diverged = _divergence(result)
@@ -172,7 +173,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
 
             write_exports(args, outputs, lambda: export_opensim(
                 problem, result, out, sim.hs, p_steps or [p]))
-        print(f"wrote {out} ({summary['completed_steps']} of {args.steps} steps)")
+        print(f"wrote {outputs.dir} ({summary['completed_steps']} of {args.steps} steps)")
         if diverged:
             raise NoGait(diverged)
         if result.failure is not None:

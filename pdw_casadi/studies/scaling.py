@@ -63,6 +63,37 @@ _RATES = ("dq1", "dq2", "dq3")
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
 
 
+#: the reference body's values a subject's body is made of (the 6-link walker's segments)
+SCALED_BODY = ("l_t", "l_s", "l_tc", "l_sc", "m_h", "m_t", "m_s", "m_f", "J_t", "J_s",
+               "l_f", "l_fc", "l_ft", "l_fh", "J_f")
+
+
+def check_scalable(problem: Problem) -> None:
+    """Raise :class:`ProblemError` unless ``problem`` can be a reference body: symmetric,
+    with a thigh, shank and foot (the segments of the de Leva table)."""
+    missing = [k for k in SCALED_BODY if k not in problem.anthropometry]
+    if missing:
+        raise ProblemError(f"{problem.name} ({problem.family}) cannot be scaled to a subject: "
+                           f"its body lacks {', '.join(missing)} (a walker with thigh, shank "
+                           f"and foot is needed, e.g. humanlike_6link)")
+    if problem.asymmetric:
+        raise ProblemError(f"{problem.name}: the reference body must be symmetric")
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string (quotes, backslashes and control characters
+    escaped)."""
+    out = []
+    for ch in str(text):
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
 def reference_height(problem: Problem, sex: str = "female") -> float:
     """The stature (m) the reference body stands for: the one at which the table's leg
     (thigh + shank) equals the problem's l_t + l_s (Table 1 gives no stature)."""
@@ -294,7 +325,8 @@ def problem_toml(problem: Problem, header: str = "") -> str:
         return "\n".join(lines) + "\n"
 
     parts = [header] if header else []
-    parts.append(f'[walker]\nfamily = "{problem.family}"\ntitle = "{problem.title}"\n')
+    parts.append(f"[walker]\nfamily = {toml_string(problem.family)}\n"
+                 f"title = {toml_string(problem.title)}\n")
     parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
     parts.append(table("anthropometry", problem.anthropometry))
     for side, d in problem.legs.items():
