@@ -181,8 +181,8 @@ def test_simulate_and_fixed_point_of_a_foot_defined_in_a_test():
     phases I, II, III with its energy books closed (1e-6 J) and impacts losing energy; and
     it is the shipped rolling-foot walker's fixed point at r_toe = 45 mm (state 1e-9,
     eigenvalues 1e-8: the same equations with the radii baked in instead of parameters,
-    other rounding). Measured 3.6 min on a loaded 2-core machine (compiling the new walker
-    and its sensitivities)."""
+    other rounding). Measured 3.6 min on a loaded 2-core machine with a cold cache
+    (compiling the new walker and its sensitivities), 35 s with it warm."""
     pb = _fixed_arc_problem()
     fp = find_fixed_point(pb, tol=1e-11, fallback=False)
     assert fp.converged and fp.residual < 1e-10, (fp.residual, fp.failure)
