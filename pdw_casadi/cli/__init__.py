@@ -25,34 +25,48 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
-
-from pdw_casadi.cli.atlas import atlas_main
-from pdw_casadi.cli.cohort import cohort_main
-from pdw_casadi.cli.common import common_parser, load_cli_problem
-from pdw_casadi.cli.contract import USER_ERRORS, fail
-from pdw_casadi.cli.design import design_main
-from pdw_casadi.cli.fit import fit_main, load_fit_start
-from pdw_casadi.cli.fixed_point import fixed_point_main
-from pdw_casadi.cli.scale import scale_main
-from pdw_casadi.cli.simulate import simulate_main
-from pdw_casadi.cli.sweep import sweep_main
+from importlib import import_module
 
 __all__ = ["COMMANDS", "USER_ERRORS", "cohort_main", "common_parser", "fit_main",
            "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main",
            "scale_main", "design_main", "atlas_main"]
 
+#: where each public name lives; imported on first use, so that a console script can take
+#: over Ctrl-C before the seconds of numerics imports (:mod:`pdw_casadi.cli.scripts`)
+_NAMES = {
+    "simulate_main": "simulate", "fixed_point_main": "fixed_point", "fit_main": "fit",
+    "load_fit_start": "fit", "sweep_main": "sweep", "scale_main": "scale",
+    "design_main": "design", "atlas_main": "atlas", "cohort_main": "cohort",
+    "common_parser": "common",
+    "load_cli_problem": "common", "USER_ERRORS": "contract", "fail": "contract",
+}
+
+
+def __getattr__(name: str):
+    if name in _NAMES:
+        return getattr(import_module(f"pdw_casadi.cli.{_NAMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _command(function: str) -> Callable[[Sequence[str] | None], int]:
+    def main(argv: Sequence[str] | None = None) -> int:
+        return __getattr__(function)(argv)
+    main.__name__ = main.__qualname__ = function
+    main.__doc__ = f"{function} (imported on first call)."
+    return main
+
 
 #: command name -> main function (for ``python -m pdw_casadi.cli COMMAND ...``)
 COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
-    "simulate": simulate_main,
-    "fixed-point": fixed_point_main,
-    "fit": fit_main,
-    "sweep": sweep_main,
-    "scale": scale_main,
-    "design": design_main,
-    "atlas": atlas_main,
-    "cohort": cohort_main,
+    "simulate": _command("simulate_main"),
+    "fixed-point": _command("fixed_point_main"),
+    "fit": _command("fit_main"),
+    "sweep": _command("sweep_main"),
+    "scale": _command("scale_main"),
+    "design": _command("design_main"),
+    "atlas": _command("atlas_main"),
+    "cohort": _command("cohort_main"),
 }
 
 
@@ -60,7 +74,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Dispatch ``python -m pdw_casadi.cli COMMAND [options]`` to a command's main."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in COMMANDS:
-        fail(f"usage: python -m pdw_casadi.cli {{{','.join(COMMANDS)}}} [options]; "
-              f"got {argv[0] if argv else 'no command'!r}")
-    return COMMANDS[argv[0]](argv[1:])
+        from pdw_casadi.cli.contract import fail
 
+        fail(f"usage: python -m pdw_casadi.cli {{{','.join(COMMANDS)}}} [options]; "
+             f"got {argv[0] if argv else 'no command'!r}")
+    return COMMANDS[argv[0]](argv[1:])

@@ -1,7 +1,5 @@
 """``python -m pdw_casadi.cli COMMAND [options]``."""
 
-import sys
+from pdw_casadi.cli.scripts import dispatch
 
-from pdw_casadi.cli import main
-
-sys.exit(main())
+dispatch()

@@ -17,9 +17,23 @@ re-solves it on the stride map).
 
 from __future__ import annotations
 
+import argparse
 import time
+from pathlib import Path
 
-from pdw_casadi.cli.contract import Parser
+from pdw_casadi.cli.contract import (
+    NoGait,
+    Outputs,
+    Parser,
+    check_input_file,
+    check_output_file,
+    finite_float,
+    int_range,
+    open_interval,
+    output_path,
+    positive_float,
+    run,
+)
 from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.studies.prosthesis import (
@@ -35,20 +49,24 @@ from pdw_casadi.studies.scaling import problem_toml
 
 
 def design_main(argv=None) -> int:
+    """``pdw-design``: the prosthetic leg's design (module docstring); the contract of
+    :mod:`pdw_casadi.cli.contract`: everything checked before the solves, one-line errors."""
     ap = Parser(prog="pdw-design", description=__doc__.splitlines()[0])
-    ap.add_argument("--lighter", type=float, default=0.3,
+    ap.add_argument("--lighter", type=open_interval("--lighter", 0.0, 1.0), default=0.3,
                     help="fraction by which the right shank and foot are lighter")
     ap.add_argument("--entry", default=START_ENTRY,
                     help="label of the atlas entry to start from (default: %(default)s)")
     ap.add_argument("--method", choices=("nlp", "continuation"), default="nlp",
                     help="stride NLP with the stability row (default) or the min-norm "
                          "Newton continuation")
-    ap.add_argument("--first-step", type=float, default=DesignNLPOptions.first_step,
+    ap.add_argument("--first-step", type=open_interval("--first-step", 0.0, 1.0),
+                    default=DesignNLPOptions.first_step,
                     help="first mass homotopy step of the NLP design (default: %(default)s)")
     ap.add_argument("--no-hold", action="store_true",
                     help="continuation: symmetry conditions only (do not hold the first "
                          "phase's duration)")
-    ap.add_argument("--out", help="write the designed walker to this TOML file")
+    ap.add_argument("--out", type=output_path("--out"), metavar="FILE.toml",
+                    help="write the designed walker to this TOML file")
     ap.add_argument("--start", metavar="FILE.toml",
                     help="NLP: start from this problem file instead of an atlas entry: a "
                          "walker written by --out (continues its design: its lighter leg, "
@@ -57,7 +75,8 @@ def design_main(argv=None) -> int:
     ap.add_argument("--diagnose", action="store_true",
                     help="NLP: after every solve, log what binds (rows and bounds by "
                          "|multiplier|) and the IPOPT inf_pr/inf_du trend")
-    ap.add_argument("--max-iter", type=int, default=DesignNLPOptions.max_iter,
+    ap.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000),
+                    default=DesignNLPOptions.max_iter,
                     help="IPOPT iterations per NLP solve (default: %(default)s)")
     ap.add_argument("--mass-distribution", default="",
                     help="NLP: comma-separated body values of the prosthetic leg designed "
@@ -67,16 +86,20 @@ def design_main(argv=None) -> int:
                     help="NLP: bounds of the designed mass distribution as multiples of the "
                          "sound leg's values, e.g. l_fc=0.1:4,J_f=0.05:3 (others: "
                          "DesignNLPOptions.mass_distribution_bounds)")
-    ap.add_argument("--max-step", type=float, default=DesignNLPOptions.max_step,
+    ap.add_argument("--max-step", type=open_interval("--max-step", 0.0, 1.0),
+                    default=DesignNLPOptions.max_step,
                     help="NLP: largest mass homotopy step (default: %(default)s)")
-    ap.add_argument("--max-solves", type=int, default=DesignNLPOptions.max_solves,
+    ap.add_argument("--max-solves", type=int_range("--max-solves", 1, 100000),
+                    default=DesignNLPOptions.max_solves,
                     help="NLP: at most this many NLP solves (default: %(default)s)")
     ap.add_argument("--free-slope", action="store_true",
                     help="NLP: the slope free too (the walker's energy supply)")
-    ap.add_argument("--symmetry-tol", type=float, default=DesignNLPOptions.symmetry_tol_pct,
+    ap.add_argument("--symmetry-tol", type=finite_float("--symmetry-tol"),
+                    default=DesignNLPOptions.symmetry_tol_pct,
                     help="NLP: largest accepted |step-length| and |step-time| asymmetry, %% "
                          "(default: %(default)s: equal steps)")
-    ap.add_argument("--t-min", type=float, default=DesignNLPOptions.t_min_s,
+    ap.add_argument("--t-min", type=positive_float("--t-min", 1.0),
+                    default=DesignNLPOptions.t_min_s,
                     help="NLP: shortest gait segment, s (default: %(default)s)")
     ap.add_argument("--family",
                     help="carry the start walker into this family, whose compliance keys "
@@ -96,120 +119,128 @@ def design_main(argv=None) -> int:
                     help="NLP: accept a solve that stopped at the iteration limit when its "
                          "answer re-simulates as stable, valid and symmetric (below 1 %%)")
     args = ap.parse_args(argv)
-    base = load_problem(args.start) if args.start else atlas_problem(args.entry)
-    if args.family:
-        extra = {}
-        for item in (i for i in args.extension.split(",") if i):
-            key, _, val = item.partition("=")
-            try:
-                extra[key] = float(val)
-            except ValueError:
-                ap.error(f"--extension: {item!r} is not KEY=VALUE with a number")
-        try:
-            base = base.in_family(args.family, extra)
-        except (ProblemError, KeyError) as exc:
-            ap.error(f"--family {args.family}: {exc}")
-    elif args.extension:
-        ap.error("--extension needs --family")
-    free = tuple(k for k in args.free.split(",") if k)
-    unknown = [k for k in free if k not in base.compliance]
-    if unknown or not free:
-        ap.error(f"--free: {', '.join(unknown) or 'no key given'}; the {base.family} "
-                 f"walker's compliance keys: {', '.join(base.compliance)}")
-    free_sound = tuple(k for k in args.free_sound.split(",") if k)
-    unknown = [k for k in free_sound if k not in base.compliance]
-    if unknown:
-        ap.error(f"--free-sound: {', '.join(unknown)}; the {base.family} walker's "
-                 f"compliance keys: {', '.join(base.compliance)}")
-    t0 = time.perf_counter()
-    dist = tuple(k for k in args.mass_distribution.split(",") if k)
-    bounds = dict(DesignNLPOptions().mass_distribution_bounds)
-    unknown = [k for k in dist if k not in bounds]
-    if unknown:
-        ap.error(f"--mass-distribution: {', '.join(unknown)} not among {', '.join(bounds)}")
-    for item in (i for i in args.mass_bounds.split(",") if i):
-        key, _, rng = item.partition("=")
-        if key not in dist or rng.count(":") != 1:
-            ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among the "
-                     f"--mass-distribution keys ({', '.join(dist) or 'none given'})")
-        try:
-            lo, hi = (float(v) for v in rng.split(":"))
-        except ValueError:
-            ap.error(f"--mass-bounds: {item!r}: LO and HI must be numbers")
-        if not 0.0 < lo < hi:
-            ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
-        bounds[key] = (lo, hi)
-    # the verdict asks for asymmetries below 1 %: the NLP's tolerance must lie inside it
-    if not 0.0 <= args.symmetry_tol < 1.0:
-        ap.error(f"--symmetry-tol must lie in [0, 1) %, got {args.symmetry_tol}")
-    nlp_only = [flag for flag, given in (
-        ("--start", args.start), ("--diagnose", args.diagnose),
-        ("--mass-distribution", dist), ("--free-slope", args.free_slope),
-        ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
-        ("--free", free != NLP_FREE), ("--free-sound", free_sound),
-        ("--accept-verified", args.accept_verified))
-        if given]
-    if args.method == "continuation" and nlp_only:
-        ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
-    if args.method == "nlp":
-        res = design_prosthesis_nlp(base, lighter=args.lighter, free=free,
-                                    options=DesignNLPOptions(first_step=args.first_step,
-                                                            diagnose=args.diagnose,
-                                                            max_iter=args.max_iter,
-                                                            mass_distribution=dist,
-                                                            mass_distribution_bounds=bounds,
-                                                            free_slope=args.free_slope,
-                                                            free_sound=free_sound,
-                                                            accept_verified=args.accept_verified,
-                                                            t_min_s=args.t_min,
-                                                            symmetry_tol_pct=args.symmetry_tol,
-                                                            max_step=args.max_step,
-                                                            max_solves=args.max_solves))
-        reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
-    else:
-        res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
-        reached = f"lambda = {res.path[-1][0]:.4f} ({len(res.path)} points)"
-    took = time.perf_counter() - t0
-    rep, fp = res.report, res.fixed_point
-    where = args.start or f"atlas entry {args.entry}"
-    print(f"start: {where}; target: right shank+foot {100 * args.lighter:g} % "
-          f"lighter; method {args.method}")
-    print(f"reached {reached}: right shank+foot {100 * (1 - lighter_mass(res.problem)):.2f} % "
-          f"lighter; target met (stable, valid, symmetric): {res.reached}")
-    if rep is None:
-        print("no stride fixed point of the simulator at the last answer")
-        return 1
-    legs = rep["legs"]
-    print(f"step length L/R {legs['left']['step_length_m']:.5f} / "
-          f"{legs['right']['step_length_m']:.5f} m (asymmetry "
-          f"{rep['step_length_asymmetry_pct']:.2e} %)")
-    print(f"step time   L/R {legs['left']['step_time_s']:.5f} / "
-          f"{legs['right']['step_time_s']:.5f} s "
-          f"(asymmetry {rep['step_time_asymmetry_pct']:.2e} %)")
-    print(f"stance % L/R {legs['left']['stance_pct']:.2f} / {legs['right']['stance_pct']:.2f}, "
-          f"double support {rep['double_support_pct']:.2f} %")
-    print(f"stride spectral radius {fp.spectral_radius:.4f} (per step {res.step_radius:.4f}); "
-          f"stable (stride <= 0.81, per step <= 0.9): {fp.spectral_radius <= 0.81}; "
-          f"valid: {fp.valid}")
-    print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
-                                                 for k, v in res.compliance.items()))
-    if res.sound_compliance:
-        print("sound-leg compliance (adapted):", ", ".join(
-            f"{k} = {v:.4f}" for k, v in res.sound_compliance.items()))
-    if res.mass_distribution:
-        print("prosthetic-leg mass distribution:", ", ".join(
-            f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
-    print(f"slope {res.problem.slope:.5f} rad")
-    for sv in res.solves:
-        print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
-              f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}, "
-              f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
-              f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "
-              f"{'accepted' if sv.accepted else 'rejected'}")
-    print(f"wall time {took:.1f} s")
-    if args.out:
-        with open(args.out, "w") as f:
-            f.write(problem_toml(res.problem, "# written by pdw-design\n"))
-        print(f"wrote {args.out}")
-    return 0
+    outputs = Outputs(args.out or Path("."))  # only --out FILE.toml, staged beside it
 
+    def body() -> int:
+        if args.out is not None:
+            check_output_file(args.out, "--out", (".toml",))
+        if args.start:
+            check_input_file(Path(args.start), "--start")
+        base = load_problem(args.start) if args.start else atlas_problem(args.entry)
+        if args.family:
+            extra = {}
+            for item in (i for i in args.extension.split(",") if i):
+                key, _, val = item.partition("=")
+                try:
+                    extra[key] = finite_float("--extension")(val)
+                except argparse.ArgumentTypeError:
+                    ap.error(f"--extension: {item!r} is not KEY=VALUE with a finite number")
+            try:
+                base = base.in_family(args.family, extra)
+            except (ProblemError, KeyError) as exc:
+                ap.error(f"--family {args.family}: {exc}")
+        elif args.extension:
+            ap.error("--extension needs --family")
+        free = tuple(k for k in args.free.split(",") if k)
+        unknown = [k for k in free if k not in base.compliance]
+        if unknown or not free:
+            ap.error(f"--free: {', '.join(unknown) or 'no key given'}; the {base.family} "
+                     f"walker's compliance keys: {', '.join(base.compliance)}")
+        free_sound = tuple(k for k in args.free_sound.split(",") if k)
+        unknown = [k for k in free_sound if k not in base.compliance]
+        if unknown:
+            ap.error(f"--free-sound: {', '.join(unknown)}; the {base.family} walker's "
+                     f"compliance keys: {', '.join(base.compliance)}")
+        t0 = time.perf_counter()
+        dist = tuple(k for k in args.mass_distribution.split(",") if k)
+        bounds = dict(DesignNLPOptions().mass_distribution_bounds)
+        unknown = [k for k in dist if k not in bounds]
+        if unknown:
+            ap.error(f"--mass-distribution: {', '.join(unknown)} not among {', '.join(bounds)}")
+        for item in (i for i in args.mass_bounds.split(",") if i):
+            key, _, rng = item.partition("=")
+            if key not in dist or rng.count(":") != 1:
+                ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among the "
+                         f"--mass-distribution keys ({', '.join(dist) or 'none given'})")
+            try:
+                lo, hi = (finite_float("--mass-bounds")(v) for v in rng.split(":"))
+            except argparse.ArgumentTypeError:
+                ap.error(f"--mass-bounds: {item!r}: LO and HI must be finite numbers")
+            if not 0.0 < lo < hi:
+                ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
+            bounds[key] = (lo, hi)
+        # the verdict asks for asymmetries below 1 %: the NLP's tolerance must lie inside it
+        if not 0.0 <= args.symmetry_tol < 1.0:
+            ap.error(f"--symmetry-tol must lie in [0, 1) %, got {args.symmetry_tol}")
+        nlp_only = [flag for flag, given in (
+            ("--start", args.start), ("--diagnose", args.diagnose),
+            ("--mass-distribution", dist), ("--free-slope", args.free_slope),
+            ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
+            ("--free", free != NLP_FREE), ("--free-sound", free_sound),
+            ("--accept-verified", args.accept_verified))
+            if given]
+        if args.method == "continuation" and nlp_only:
+            ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
+        if args.method == "nlp":
+            res = design_prosthesis_nlp(base, lighter=args.lighter, free=free,
+                                        options=DesignNLPOptions(first_step=args.first_step,
+                                                                diagnose=args.diagnose,
+                                                                max_iter=args.max_iter,
+                                                                mass_distribution=dist,
+                                                                mass_distribution_bounds=bounds,
+                                                                free_slope=args.free_slope,
+                                                                free_sound=free_sound,
+                                                                accept_verified=args.accept_verified,
+                                                                t_min_s=args.t_min,
+                                                                symmetry_tol_pct=args.symmetry_tol,
+                                                                max_step=args.max_step,
+                                                                max_solves=args.max_solves))
+            reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
+        else:
+            res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
+            reached = f"lambda = {res.path[-1][0]:.4f} ({len(res.path)} points)"
+        took = time.perf_counter() - t0
+        rep, fp = res.report, res.fixed_point
+        where = args.start or f"atlas entry {args.entry}"
+        print(f"start: {where}; target: right shank+foot {100 * args.lighter:g} % "
+              f"lighter; method {args.method}")
+        print(f"reached {reached}: right shank+foot {100 * (1 - lighter_mass(res.problem)):.2f} % "
+              f"lighter; target met (stable, valid, symmetric): {res.reached}")
+        if rep is None:
+            raise NoGait("no stride fixed point of the simulator at the last answer")
+        legs = rep["legs"]
+        print(f"step length L/R {legs['left']['step_length_m']:.5f} / "
+              f"{legs['right']['step_length_m']:.5f} m (asymmetry "
+              f"{rep['step_length_asymmetry_pct']:.2e} %)")
+        print(f"step time   L/R {legs['left']['step_time_s']:.5f} / "
+              f"{legs['right']['step_time_s']:.5f} s "
+              f"(asymmetry {rep['step_time_asymmetry_pct']:.2e} %)")
+        print(f"stance % L/R {legs['left']['stance_pct']:.2f} / {legs['right']['stance_pct']:.2f}, "
+              f"double support {rep['double_support_pct']:.2f} %")
+        print(f"stride spectral radius {fp.spectral_radius:.4f} (per step {res.step_radius:.4f}); "
+              f"stable (stride <= 0.81, per step <= 0.9): {fp.spectral_radius <= 0.81}; "
+              f"valid: {fp.valid}")
+        print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
+                                                     for k, v in res.compliance.items()))
+        if res.sound_compliance:
+            print("sound-leg compliance (adapted):", ", ".join(
+                f"{k} = {v:.4f}" for k, v in res.sound_compliance.items()))
+        if res.mass_distribution:
+            print("prosthetic-leg mass distribution:", ", ".join(
+                f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
+        print(f"slope {res.problem.slope:.5f} rad")
+        for sv in res.solves:
+            print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
+                  f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}, "
+                  f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
+                  f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "
+                  f"{'accepted' if sv.accepted else 'rejected'}")
+        print(f"wall time {took:.1f} s")
+        if args.out:
+            outputs.wrote(outputs.staged(args.out)).write_text(
+                problem_toml(res.problem, "# written by pdw-design\n"))
+            print(f"wrote {args.out}")
+        return 0
+
+
+    return run(outputs, body)

@@ -10,11 +10,14 @@ from pathlib import Path
 
 from pdw_casadi.cli.common import (
     check_curve_walker,
+    check_exports,
     common_parser,
+    export_argument,
     load_cli_problem,
     parallel_arguments,
     parse_command,
     require_one_leg_set,
+    write_exports,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -24,6 +27,7 @@ from pdw_casadi.cli.contract import (
     check_input_file,
     connect_scheduler,
     int_range,
+    one_line,
     open_interval,
     run,
 )
@@ -34,11 +38,37 @@ from pdw_casadi.model.problem import Problem, check_bounds
 def _fit_output(outputs: Outputs, opts) -> Path:
     """Create a fit's output folder and point IPOPT's log at a fresh ``ipopt.log`` in it."""
     out = outputs.create()
-    outputs.notes.append(f"the report files are written only at the end, into {out}")
-    log_file = out / "ipopt.log"
-    log_file.unlink(missing_ok=True)
-    opts.log_file = str(log_file)
+    outputs.notes.append(f"the report files are written only at the end, into {outputs.dir}")
+    opts.log_file = str(out / "ipopt.log")  # staged: an earlier run's log stays until the end
     return out
+
+
+def check_atlas_file(problem: Problem, path: Path, same_parameters: bool = True) -> None:
+    """Raise :class:`UsageError` unless ``path`` reads as a gait atlas (of ``problem``'s
+    parameters with ``same_parameters``): a malformed file fails before anything is
+    written, not after the fit's first solves."""
+    import numpy as np
+
+    from pdw_casadi.fit.starts import AtlasEntry
+
+    check_input_file(path, "--atlas")
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        entries = [AtlasEntry.from_dict(d) for d in data["entries"]]
+        names = list(data["parameter_names"])
+        for e in entries:
+            arrays = (e.state, e.parameters, e.curves.to_numpy(float))
+            if not all(np.all(np.isfinite(a)) for a in arrays) or e.parameters.size != len(names):
+                raise ValueError(f"entry {e.label!r} has non-finite or missing values")
+    except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError) as exc:
+        reason = f"no key {exc}" if isinstance(exc, KeyError) else one_line(exc)
+        raise UsageError(f"--atlas {path}: not a gait atlas ({reason})") from None
+    if same_parameters and names != list(problem.parameter_names):
+        raise UsageError(f"--atlas {path}: an atlas of a walker with the parameters "
+                         f"{', '.join(map(str, names))}, not {problem.name}'s")
+    if same_parameters and any(e.state.size != len(problem.state_names) for e in entries):
+        raise UsageError(f"--atlas {path}: its states do not have {problem.name}'s "
+                         f"{len(problem.state_names)} values")
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:
@@ -50,7 +80,8 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     that has one, its comparison walker; the gait events marked), ``limit_cycle.png``
     (Fig. 4) and ``table.md`` (R^2, then the gait timing beside human values).
     ``--timing [W]`` adds the timing target (:class:`~pdw_casadi.fit.FitOptions`
-    ``timing_weight``).
+    ``timing_weight``). ``--export opensim`` adds the OpenSim files of two steps of the
+    fitted gait (:mod:`pdw_casadi.report.opensim`).
     Exit code 1 when no stable valid gait was found (the outputs then describe the best
     candidate and say so). The walker needs knee and hip outputs and something to fit
     (compliance values, or ``--free-slope``).
@@ -88,6 +119,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         help="NLP solves per start: a further one is built at the answer only "
                              "when the objective's sample brackets moved (default: %(default)s)")
     parallel_arguments(parser, "the multistart")
+    export_argument(parser, "two steps of the fitted gait")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
@@ -112,6 +144,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         else:
             human = load_gait_file(args.gait)
         problem = load_cli_problem(args)
+        check_exports(args, problem)
         if isinstance(human, SideCurves):
             return _fit_stride_body(args, outputs, problem, human)
         if args.side is not None:
@@ -132,7 +165,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
 
         atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
         if atlas:
-            check_input_file(Path(atlas), "--atlas")
+            check_atlas_file(problem, Path(atlas))
         if args.scheduler is not None:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
         opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
@@ -150,8 +183,9 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
                      "ipopt.log"):
             outputs.wrote(out / name)
+        _export_fit(args, outputs, problem, summary, out)
         print(summary["headline"])
-        print(f"wrote {out}")
+        print(f"wrote {outputs.dir}")
         if not (summary["stable"] and summary["valid"]):
             raise NoGait(f"no stable valid gait: {summary['headline']}")
         return 0
@@ -184,7 +218,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     outputs.check()
     atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
     if atlas:
-        check_input_file(Path(atlas), "--atlas")
+        check_atlas_file(problem, Path(atlas), same_parameters=not problem.asymmetric)
     opts = StrideFitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
                             max_radius=args.max_radius, atlas=atlas, max_iter=args.max_iter,
                             rounds=args.rounds, verbose=not args.quiet,
@@ -195,11 +229,26 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
                                     log=lambda m: print(m, file=sys.stderr, flush=True))
     for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
         outputs.wrote(out / name)
+    _export_fit(args, outputs, problem, summary, out)
     print(summary["headline"])
-    print(f"wrote {out}")
+    print(f"wrote {outputs.dir}")
     if not summary["accepted"]:
         raise NoGait(f"no stable valid stride: {summary['headline']}")
     return 0
+
+
+def _export_fit(args, outputs: Outputs, problem: Problem, summary: dict, out: Path) -> None:
+    """--export: two steps of the fitted gait (the best candidate, as the report; none
+    when no solve gave one)."""
+    if "fixed_point" not in summary:
+        return
+    from pdw_casadi.report.opensim import export_gait, fitted_problem
+
+    def export():
+        fitted = fitted_problem(problem, summary)
+        return export_gait(fitted, fitted.state_vector(), out, steps=2)
+
+    write_exports(args, outputs, export)
 
 
 def load_fit_start(problem: Problem, path: Path) -> Problem:

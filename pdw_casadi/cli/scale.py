@@ -5,7 +5,6 @@ from __future__ import annotations
 import inspect
 import sys
 import time
-from pathlib import Path
 
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -13,11 +12,13 @@ from pdw_casadi.cli.contract import (
     Parser,
     check_output_file,
     open_interval,
+    output_path,
     run,
 )
 from pdw_casadi.model.problem import ProblemError, load_problem
 from pdw_casadi.studies.scaling import (
     SEXES,
+    check_scalable,
     problem_toml,
     reference_height,
     reference_mass,
@@ -59,9 +60,9 @@ def scale_main(argv=None) -> int:
                              "(default: %(default)s)")
     parser.add_argument("--problem", default="humanlike_6link",
                         help="reference problem (default: %(default)s)")
-    parser.add_argument("--out", type=Path, required=True, metavar="FILE.toml")
+    parser.add_argument("--out", type=output_path("--out"), required=True, metavar="FILE.toml")
     args = parser.parse_args(argv)
-    outputs = Outputs(args.out.parent if str(args.out.parent) else Path("."))
+    outputs = Outputs(args.out)  # one file, staged beside it
 
     def body() -> int:
         check_output_file(args.out, "--out", (".toml",))
@@ -74,6 +75,7 @@ def scale_main(argv=None) -> int:
         else:
             who = {"mass_kg": args.mass, "height_m": args.height, "sex": args.sex}
         ref = load_problem(args.problem)
+        check_scalable(ref)
         print(f"scaling {ref.name} to {who['mass_kg']:g} kg, {who['height_m']:g} m, "
               f"{who['sex']} ({args.body})...", file=sys.stderr)
         t0 = time.perf_counter()
@@ -110,9 +112,7 @@ def scale_main(argv=None) -> int:
                   f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
                   f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"
                   f"\n# gait: {note}; spectral radius {rho:.4f}\n")
-        outputs.create()
-        args.out.write_text(problem_toml(pb, header))
-        outputs.wrote(args.out)
+        outputs.wrote(outputs.staged(args.out)).write_text(problem_toml(pb, header))
         print(f"wrote {args.out} (spectral radius {rho:.4f}, lambda {lam:g}, "
               f"{time.perf_counter() - t0:.1f} s)")
         return 0

@@ -126,15 +126,17 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             corrector = RefitCorrector(problem, human, FitOptions(verbose=False))
         out = outputs.create()
         csv_path, partial = out / "sweep.csv", out / "sweep.partial.csv"
-        partial.unlink(missing_ok=True)  # a previous interrupted run's rows
+        outputs.keep_on_interrupt(partial.name)  # the rows found stay after a Ctrl-C
+        outputs.obsolete.append(partial.name)  # a completed sweep ends an earlier one's
+        final_csv, final_partial = outputs.final(csv_path), outputs.final(partial)
         columns: list[str] = []
         found = [0]
 
         def note() -> None:
-            rows = (f"{found[0]} rows found so far are in {partial}" if found[0]
+            rows = (f"{found[0]} rows found so far are in {final_partial}" if found[0]
                     else "no sweep rows found yet")
-            outputs.notes[:] = [rows + (f" ({csv_path} of an earlier run untouched)"
-                                        if csv_path.exists() else "")]
+            outputs.notes[:] = [rows + (f" ({final_csv} of an earlier run untouched)"
+                                        if final_csv.exists() else "")]
 
         note()
 
@@ -187,7 +189,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         else:
             print(f"no stable valid gait found over {args.param} = {args.start:g} .. "
                   f"{args.stop:g}")
-        print(f"wrote {out}")
+        print(f"wrote {outputs.dir}")
         return 0
 
     return run(outputs, body)

@@ -6,5 +6,6 @@
 - :mod:`.parallel`: one map over tasks (serial, a local process pool or Dask);
 - :mod:`.errors`: the exception types every layer raises;
 - :mod:`.resources`: the bundled problem and data files;
-- :mod:`.jsonio`: JSON output with numpy values.
+- :mod:`.jsonio`: JSON output with numpy values;
+- :mod:`.interrupt`: Ctrl-C and SIGTERM that no solver swallows.
 """

@@ -12,6 +12,8 @@ from collections.abc import Callable, Sequence
 
 import casadi as ca
 
+from pdw_casadi.engine import interrupt
+
 
 class NumericFunction(ca.Callback):
     """``evaluate(list of DM) -> list`` with fixed sparsities, and an optional Jacobian."""
@@ -55,6 +57,9 @@ class NumericFunction(ca.Callback):
         return self._names_out[i]
 
     def eval(self, arg):
+        # a pending Ctrl-C: no more work inside the solver (CasADi evaluates the NLP once
+        # more after IPOPT stops, seconds for the stability row)
+        interrupt.check()
         return self._evaluate(arg)
 
     def has_jacobian(self):

@@ -15,11 +15,13 @@ CasADi function and converts its outputs, with identical results.
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import threading
 from pathlib import Path
@@ -41,30 +43,157 @@ def compiler() -> str | None:
     return shutil.which(os.environ.get("CC", "gcc")) or shutil.which("cc")
 
 
+_WARNED: set[str] = set()
+_FALLBACK: list[Path] = []  # the temporary cache used when the configured one is unusable
+
+
+def _warn(key: str, message: str) -> None:
+    """One warning line per ``key`` and process."""
+    if key not in _WARNED:
+        _WARNED.add(key)
+        print(f"warning: {message}", file=sys.stderr, flush=True)
+
+
+def _usable_cache() -> Path | None:
+    """The cache directory, or a temporary one (one warning) when it cannot be written;
+    None when neither can (then the interpreter runs the functions)."""
+    base = cache_dir()
+    try:
+        base.mkdir(parents=True, exist_ok=True)
+        if not os.access(base, os.W_OK | os.X_OK):
+            raise PermissionError(13, "not writable")
+        return base
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+    if not _FALLBACK:
+        try:
+            _FALLBACK.append(Path(tempfile.mkdtemp(prefix="pdw_casadi-cache-")))
+            atexit.register(shutil.rmtree, _FALLBACK[0], True)  # this run's only
+        except OSError:
+            _warn("cache", f"compile cache {base} unusable ({reason}) and no temporary "
+                           f"directory: running the functions uncompiled (slower)")
+            return None
+    _warn("cache", f"compile cache {base} unusable ({reason}); compiling into the temporary "
+                   f"{_FALLBACK[0]} for this run")
+    return _FALLBACK[0]
+
+
+def _digest(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _record(so: Path) -> str:
+    """The check recorded beside a library when it is built: its size and SHA-256."""
+    return f"{so.stat().st_size} {_digest(so)}\n"
+
+
+_PROBE = """
+import ctypes, sys
+lib = ctypes.CDLL(sys.argv[1])
+for name in sys.argv[2:]:
+    getattr(lib, name)
+    n = getattr(lib, name + "_n_in"); n.restype = ctypes.c_longlong
+    m = getattr(lib, name + "_n_out"); m.restype = ctypes.c_longlong
+    print(n(), m())
+"""
+
+
+def _probe(so: Path, funs: list) -> bool:
+    """Whether ``so`` loads and holds ``funs`` with their signatures, tried in a child
+    process (a damaged library can crash the process that loads it)."""
+    try:
+        res = subprocess.run([sys.executable, "-c", _PROBE, str(so), *(f.name() for f in funs)],
+                             capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError):
+        return False
+    want = "".join(f"{f.n_in()} {f.n_out()}\n" for f in funs)
+    return res.returncode == 0 and res.stdout == want
+
+
+def _verified(so: Path, funs: list) -> str | None:
+    """None when the cached ``so`` is intact, else why not. A library built by this
+    module has its size and checksum beside it (``.sum``); an older one without it is
+    probed in a child process once and then recorded."""
+    record = so.with_suffix(".sum")
+    try:
+        size = so.stat().st_size
+        if size == 0:
+            return "empty file"
+        if record.exists():
+            want = record.read_text()
+            if want.split()[:1] != [str(size)]:
+                return f"size {size} bytes, built as {want.split()[0] if want else '?'}"
+            return None if want == _record(so) else "checksum differs from the build's"
+        if not _probe(so, funs):
+            return "does not load or holds other functions"
+        _write_record(so)
+        return None
+    except OSError as exc:
+        return exc.strerror or str(exc)
+
+
+def _write_record(so: Path) -> None:
+    tmp = so.with_suffix(f".sum.{os.getpid()}")
+    try:
+        tmp.write_text(_record(so))
+        os.replace(tmp, so.with_suffix(".sum"))
+    except OSError:
+        tmp.unlink(missing_ok=True)  # unrecorded: probed again next time
+
+
+def _build(funs: list, flags: tuple[str, ...], cc: str, so: Path) -> bool:
+    """Compile ``funs`` into ``so`` (atomically, with its record); False when gcc fails."""
+    name = funs[0].name()
+    with tempfile.TemporaryDirectory(dir=so.parent) as tmp:
+        src = f"{name}.c"
+        cg = ca.CodeGenerator(src, {"with_header": False})
+        for f in funs:
+            cg.add(f)
+        cg.generate(tmp + os.sep)
+        out = Path(tmp) / f"{name}.so"
+        res = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(out),
+                              str(Path(tmp) / src)], capture_output=True, text=True)
+        if res.returncode != 0:
+            return False
+        record = Path(tmp) / "record"
+        record.write_text(_record(out))
+        # atomic: concurrent processes never see half a file; the record goes first so a
+        # reader never takes a new library for a damaged one for long (at worst: rebuilt)
+        os.replace(record, so.with_suffix(".sum"))
+        os.replace(out, so)
+    return True
+
+
 def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
-    """Path of the cached shared library holding ``funs`` (built if missing), or None."""
+    """Path of the cached shared library holding ``funs`` (built if missing or damaged),
+    or None (no compiler, no usable cache, or a failed build: interpreted)."""
     cc = compiler()
     if cc is None:
         return None
     text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
     key = hashlib.sha1(text.encode()).hexdigest()[:20]
     name = funs[0].name()
-    so = cache_dir() / f"{name}_{key}.so"
     with _LOCK:
-        if not so.exists():
-            so.parent.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory(dir=so.parent) as tmp:
-                src = f"{name}.c"
-                cg = ca.CodeGenerator(src, {"with_header": False})
-                for f in funs:
-                    cg.add(f)
-                cg.generate(tmp + os.sep)
-                out = Path(tmp) / f"{name}.so"
-                res = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(out),
-                                      str(Path(tmp) / src)], capture_output=True, text=True)
-                if res.returncode != 0:
-                    return None
-                os.replace(out, so)  # atomic: concurrent processes never see half a file
+        base = _usable_cache()
+        if base is None:
+            return None
+        so = base / f"{name}_{key}.so"
+        if so.exists():
+            why = _verified(so, funs)
+            if why is None:
+                return so
+            _warn(str(so), f"damaged compiled library {so} ({why}): rebuilt")
+        try:
+            if not _build(funs, flags, cc, so):
+                return None
+        except OSError as exc:  # e.g. the disk filled up: run uncompiled
+            _warn("build", f"could not compile into {base} ({exc.strerror or exc}); "
+                           f"running uncompiled")
+            return None
     return so
 
 

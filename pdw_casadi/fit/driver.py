@@ -8,6 +8,7 @@ import time
 import casadi as ca
 import numpy as np
 
+from pdw_casadi.engine import interrupt
 from pdw_casadi.fit.objective import curve_errors
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.timing import human_timing, phase_contacts
@@ -109,6 +110,7 @@ class FitSolver:
         e0 = self.err(w0).full().ravel()
         t0 = time.perf_counter()
         sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        interrupt.check()  # Ctrl-C inside IPOPT ends the solve, not the run: re-raise it
         st = solver.stats()
         x = sol["x"].full().ravel()
         f = float(sol["f"])

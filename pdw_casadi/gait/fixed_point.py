@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 import pandas as pd
 
+from pdw_casadi.engine import interrupt
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.model.margins import first_violation, slacks
 from pdw_casadi.model.system import gait_system
@@ -236,6 +237,7 @@ def _ipopt_fixed_point(P: PoincareMap, x, p, tol):
     try:
         with _quiet_stderr():
             sol = solver(x0=x)
+        interrupt.check()  # a Ctrl-C caught by CasADi inside the solve
         xn = np.asarray(sol["x"]).ravel()
         return xn, float(np.linalg.norm(P(xn, p) - xn)) < max(tol, 1e-8)
     except (RuntimeError, PoincareError):

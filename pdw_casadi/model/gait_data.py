@@ -97,6 +97,14 @@ RADIANS_MAX_RANGE_DEG = 5.0
 RADIANS_MAX_ABS = 3.2
 """... and whose largest magnitude is below this (just above pi) then looks like radians."""
 
+MIN_RANGE_DEG = 5.0
+"""A knee, hip or thigh curve must move through at least this (deg) over the cycle: a flat
+curve is not walking, and the fit's R^2 (1 - SSE / variance) is undefined for it."""
+
+MAX_ABS_DEG = 360.0
+"""No angle or standard deviation of a gait-curve file may exceed this (deg) in magnitude:
+beyond a full turn the numbers are not joint angles (a unit or export fault)."""
+
 _SUFFIX = ".csv"
 _KIND = "data"
 _READ_ERRORS = (
@@ -379,6 +387,15 @@ def _validate(frame: pd.DataFrame, source: Path, side: str | None = None) -> pd.
             f"got {float(pct[-1])!r}{hint}"
         )
 
+    for column in (c for c in known if c != "cycle_pct"):
+        values = frame[column].to_numpy()
+        big = np.flatnonzero(np.abs(values) > MAX_ABS_DEG)
+        if big.size:
+            i = int(big[0])
+            raise GaitDataError(
+                f"{where}: column {col(column)!r} has the value {float(values[i]):.6g} at data "
+                f"row {i + 1}, beyond +-{MAX_ABS_DEG:g} deg: not a joint angle in degrees"
+            )
     for column in (c for c in ANGLE_COLUMNS if c in frame.columns):
         values = frame[column].to_numpy()
         span = float(values.max() - values.min())
@@ -389,6 +406,13 @@ def _validate(frame: pd.DataFrame, source: Path, side: str | None = None) -> pd.
                 f"{span:.3g} over the cycle and never exceeds {peak:.3g} in magnitude (a human "
                 f"knee moves through ~60 deg per cycle, hip and thigh ~45 deg); "
                 f"convert to degrees"
+            )
+        if span < MIN_RANGE_DEG:
+            raise GaitDataError(
+                f"{where}: column {col(column)!r} is "
+                + ("constant" if span == 0.0 else f"nearly flat (it spans only {span:.3g} deg)")
+                + f" over the cycle; a walking knee, hip or thigh moves through tens of "
+                f"degrees (at least {MIN_RANGE_DEG:g} deg needed to fit it)"
             )
     return frame
 

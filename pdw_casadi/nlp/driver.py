@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from pdw_casadi.engine import interrupt
 from pdw_casadi.engine.callback import NumericFunction
 from pdw_casadi.nlp.stability import StabilityRow
 
@@ -99,7 +100,9 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int):
 
 
 class Progress(ca.Callback):
-    """IPOPT iteration callback: one :class:`Iterate` per iteration to ``log``."""
+    """IPOPT iteration callback: one :class:`Iterate` per iteration to ``log``; asks IPOPT
+    to stop (``User_Requested_Stop``) once Ctrl-C or SIGTERM is pending, so the solve ends
+    within an iteration and the caller's :func:`pdw_casadi.engine.interrupt.check` raises."""
 
     def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log):
         ca.Callback.__init__(self)
@@ -134,6 +137,8 @@ class Progress(ca.Callback):
         return ca.Sparsity(0, 0)
 
     def eval(self, arg):
+        if interrupt.requested():
+            return [1]  # nonzero: IPOPT stops at once (the signal is re-raised after the solve)
         d = dict(zip(ca.nlpsol_out(), arg, strict=False))
         x, g = np.asarray(d["x"]).ravel(), np.asarray(d["g"]).ravel()
         inf = max(float(np.max(self.lbg - g, initial=0)), float(np.max(g - self.ubg, initial=0)),

@@ -322,6 +322,7 @@ class StrideDesignSolver:
 
     def solve(self, w0) -> dict:
         """Solve from ``w0``: the answer ``w``, IPOPT status, iterations, wall time (s)."""
+        from pdw_casadi.engine import interrupt
         from pdw_casadi.nlp.driver import Progress, ipopt_settings, succeeded
 
         opts = self.opts
@@ -334,6 +335,7 @@ class StrideDesignSolver:
         w0 = np.clip(w0, self.lbx, self.ubx)
         t0 = time.perf_counter()
         sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        interrupt.check()  # Ctrl-C inside IPOPT ends the design, not this one solve
         st = solver.stats()
         w = sol["x"].full().ravel()
         hist = st.get("iterations", {})

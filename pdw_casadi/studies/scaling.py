@@ -63,6 +63,20 @@ _RATES = ("dq1", "dq2", "dq3")
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
 
 
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string (quotes, backslashes and control characters
+    escaped)."""
+    out = []
+    for ch in str(text):
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
 def reference_height(problem: Problem, sex: str = "female") -> float:
     """The stature (m) the reference body stands for: the one at which the table's leg
     (thigh + shank) equals the problem's l_t + l_s (Table 1 gives no stature)."""
@@ -302,8 +316,9 @@ def check_scalable(problem: Problem) -> None:
 
     missing = [k for k in SCALED_BODY if k not in problem.anthropometry]
     if missing:
-        raise ProblemError(f"{problem.name} ({problem.family}): the de Leva scaling needs "
-                           f"the 6-link body; no {', '.join(missing)}")
+        raise ProblemError(f"{problem.name} ({problem.family}) cannot be scaled to a subject: "
+                           f"the de Leva scaling needs the 6-link body; no "
+                           f"{', '.join(missing)} (e.g. humanlike_6link has it)")
     if problem.asymmetric:
         raise ProblemError(f"{problem.name}: the reference body must be symmetric")
     if per_leg_system(problem) is None:
@@ -440,7 +455,8 @@ def problem_toml(problem: Problem, header: str = "") -> str:
         return "\n".join(lines) + "\n"
 
     parts = [header] if header else []
-    parts.append(f'[walker]\nfamily = "{problem.family}"\ntitle = "{problem.title}"\n')
+    parts.append(f"[walker]\nfamily = {toml_string(problem.family)}\n"
+                 f"title = {toml_string(problem.title)}\n")
     parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
     parts.append(table("anthropometry", problem.anthropometry))
     for side, d in problem.legs.items():
