@@ -55,8 +55,8 @@ class Bar:
     def _note(self) -> None:
         n = self.done + self.skipped
         fits = self.outputs.dir / "fits"
-        if n and fits not in self.outputs.written:
-            self.outputs.wrote(fits)
+        if n and fits not in self.outputs.committed:  # saved in place as each fit ends
+            self.outputs.committed.append(fits)
         note = (f"{n} of {self.total} fits complete in {self.outputs.dir / 'fits'}; run the "
                 f"same command again to resume the rest")
         self.outputs.notes[:] = [note]
@@ -206,7 +206,8 @@ def _run(plan, outputs: Outputs, workers: int, scheduler: str | None, slots, qui
     from pdw_casadi.report.cohort import plot_cohort
     from pdw_casadi.studies.cohort import run_cohort
 
-    out = outputs.create()
+    stage = outputs.create()  # the table and figures: moved into place at the end
+    out = outputs.dir  # each fit's record: saved in place, atomically, as it ends
     where = f"on the Dask cluster at {scheduler}" if scheduler else (
         f"on {workers} processes" if workers > 1 else "in this process")
     bodies = f", {len(plan.bodies)} subjects' bodies first" if plan.bodies else ""
@@ -216,14 +217,15 @@ def _run(plan, outputs: Outputs, workers: int, scheduler: str | None, slots, qui
     t0 = time.perf_counter()
     bar = Bar(plan.n_fits, slots, quiet, outputs)
     try:
-        table = run_cohort(plan, out, workers=workers, scheduler=scheduler, progress=bar)
+        table = run_cohort(plan, out, workers=workers, scheduler=scheduler, progress=bar,
+                           table_dir=stage)
     finally:
         bar.close()
     outputs.wrote(out / "cohort.csv")
-    if (out / "cohort.parquet").exists():
+    if (stage / "cohort.parquet").exists():
         outputs.wrote(out / "cohort.parquet")
-    for p in plot_cohort(table, out):
-        outputs.wrote(p)
+    for p in plot_cohort(table, stage):
+        outputs.wrote(out / p.name)
     counts = table["status"].value_counts().to_dict()
     line = (f"{len(table)} fits: {counts.get('accepted', 0)} accepted, "
             f"{counts.get('rejected', 0)} rejected, {counts.get('failed', 0)} failed "

@@ -808,12 +808,15 @@ def fit_tasks(plan: CohortPlan, bodies: dict[str, dict]) -> tuple[list[FitTask],
 
 def run_cohort(plan: CohortPlan, out: Path, workers: int = 1, scheduler: str | None = None,
                progress: Progress | None = None,
-               fit_fn: Callable[[FitTask], dict] = run_fit_task) -> pd.DataFrame:
+               fit_fn: Callable[[FitTask], dict] = run_fit_task,
+               table_dir: Path | None = None) -> pd.DataFrame:
     """Run the plan into directory ``out``: the bodies, then every fit not yet complete
     there (as each ends its record is saved), then the table (:func:`cohort_table`) from
-    the saved records, written as ``cohort.csv`` (and ``cohort.parquet`` with pyarrow).
-    ``fit_fn``: the function of one :class:`FitTask` (module level, picklable; tests
-    inject a fake one)."""
+    the saved records, written as ``cohort.csv`` (and ``cohort.parquet`` with pyarrow)
+    into ``table_dir`` (default ``out``; the command writes it into its staging folder,
+    moved into place when the run completes, while the saved fits stay in ``out`` whatever
+    happens). ``fit_fn``: the function of one :class:`FitTask` (module level, picklable;
+    tests inject a fake one)."""
     out = Path(out)
     progress = progress or Progress()
     bodies = run_bodies(plan, out, workers, scheduler, progress)
@@ -833,7 +836,7 @@ def run_cohort(plan: CohortPlan, out: Path, workers: int = 1, scheduler: str | N
         save_fit(out, rec)
         progress("done", rec["fit_id"], rec)
     table = cohort_table(plan, out)
-    write_table(table, out)
+    write_table(table, Path(table_dir) if table_dir is not None else out)
     return table
 
 
