@@ -237,7 +237,11 @@ def test_the_summary_figures_draw_symmetric_and_per_side_rows(tmp_path):
 
 # -- the command's contract ------------------------------------------------------------------
 def test_cohort_is_a_command():
-    assert COMMANDS["cohort"] is cohort_main
+    import tomllib
+
+    assert COMMANDS["cohort"].__name__ == "cohort_main"
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts["pdw-cohort"] == "pdw_casadi.cli.scripts:cohort"
 
 
 @pytest.mark.parametrize("args, fragment", [
