@@ -206,7 +206,11 @@ def _run(plan, outputs: Outputs, workers: int, scheduler: str | None, slots, qui
     from pdw_casadi.report.cohort import plot_cohort
     from pdw_casadi.studies.cohort import run_cohort
 
-    out = outputs.create()
+    outputs.create()  # validated and locked: a second run into the same folder is refused
+    # each fit's record is written in place, atomically, with its completion mark, so that
+    # an interrupted study keeps its finished fits and a second run resumes from them
+    out = outputs.dir
+    outputs.notes.append(f"finished fits are kept in {out} (a second run resumes from them)")
     where = f"on the Dask cluster at {scheduler}" if scheduler else (
         f"on {workers} processes" if workers > 1 else "in this process")
     bodies = f", {len(plan.bodies)} subjects' bodies first" if plan.bodies else ""
