@@ -237,9 +237,14 @@ def test_the_summary_figures_draw_symmetric_and_per_side_rows(tmp_path):
 
 # -- the command's contract ------------------------------------------------------------------
 def test_cohort_is_a_command():
+    # the dispatcher imports a command on first call; it runs cohort_main, and the
+    # console script pdw-cohort is declared
     import tomllib
 
-    assert COMMANDS["cohort"].__name__ == "cohort_main"
+    assert COMMANDS["cohort"].__name__ == cohort_main.__name__
+    with pytest.raises(SystemExit) as exc:
+        COMMANDS["cohort"](["--version"])
+    assert exc.value.code == 0
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
     assert scripts["pdw-cohort"] == "pdw_casadi.cli.scripts:cohort"
 

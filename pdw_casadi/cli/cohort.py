@@ -206,8 +206,12 @@ def _run(plan, outputs: Outputs, workers: int, scheduler: str | None, slots, qui
     from pdw_casadi.report.cohort import plot_cohort
     from pdw_casadi.studies.cohort import run_cohort
 
-    stage = outputs.create()  # the table and figures: moved into place at the end
-    out = outputs.dir  # each fit's record: saved in place, atomically, as it ends
+    # validated and locked: a second run into the same folder is refused. Each fit's record
+    # is saved in place, atomically, as it ends (an interrupted study keeps its finished
+    # fits and a second run resumes from them); the table and figures are staged and moved
+    # into place when the run completes
+    stage = outputs.create()
+    out = outputs.dir
     where = f"on the Dask cluster at {scheduler}" if scheduler else (
         f"on {workers} processes" if workers > 1 else "in this process")
     bodies = f", {len(plan.bodies)} subjects' bodies first" if plan.bodies else ""
