@@ -162,3 +162,25 @@ def test_subject_continuation_keeps_the_gait_valid():
     loose = walker_for_subject(who["mass_kg"], who["height_m"], who["sex"], start, fp0.state,
                                options=DesignOptions())
     assert not (loose.reached and loose.fixed_point.valid)
+
+
+# a continuation to the subject's body and a fit to its own curves: minutes; in the slow set
+@pytest.mark.slow
+def test_pdw_scale_writes_a_stable_gait_that_pdw_fixed_point_finds(tmp_path, capsys):
+    """``pdw-scale --mass 62.45 --height 1.695`` (the continued gait has spectral radius
+    1.013) writes the nearest stable gait: pdw-fixed-point on that file converges there,
+    stable with rho <= the default 0.9, valid, and the body is the subject's."""
+    import json
+
+    from pdw_casadi.cli import fixed_point_main
+
+    out = tmp_path / "w.toml"
+    assert scale_main(["--mass", "62.45", "--height", "1.695", "--out", str(out)]) == 0
+    pb = load_problem(out)
+    assert abs(reference_mass(pb) - 62.45) < 1e-9
+    want = subject_anthropometry(62.45, 1.695, "female")
+    assert all(abs(pb.anthropometry[k] - want[k]) < 1e-12 for k in want)
+    assert fixed_point_main(["--problem", str(out), "--out", str(tmp_path / "fp")]) == 0
+    s = json.loads((tmp_path / "fp" / "summary.json").read_text())
+    assert s["converged"] and s["stable"] and s["valid"]
+    assert s["spectral_radius"] <= 0.9

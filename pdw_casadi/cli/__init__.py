@@ -27,7 +27,8 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib import import_module
 
-__all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_main",
+__all__ = ["COMMANDS", "USER_ERRORS", "cohort_main", "common_parser", "fit_main",
+           "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main",
            "scale_main", "design_main", "atlas_main"]
 
@@ -36,7 +37,8 @@ __all__ = ["COMMANDS", "USER_ERRORS", "common_parser", "fit_main", "fixed_point_
 _NAMES = {
     "simulate_main": "simulate", "fixed_point_main": "fixed_point", "fit_main": "fit",
     "load_fit_start": "fit", "sweep_main": "sweep", "scale_main": "scale",
-    "design_main": "design", "atlas_main": "atlas", "common_parser": "common",
+    "design_main": "design", "atlas_main": "atlas", "cohort_main": "cohort",
+    "common_parser": "common",
     "load_cli_problem": "common", "USER_ERRORS": "contract", "fail": "contract",
 }
 
@@ -64,6 +66,7 @@ COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "scale": _command("scale_main"),
     "design": _command("design_main"),
     "atlas": _command("atlas_main"),
+    "cohort": _command("cohort_main"),
 }
 
 

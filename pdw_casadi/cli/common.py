@@ -134,3 +134,47 @@ def check_curve_walker(problem: Problem, what: str):
     return faces
 
 
+
+
+#: formats of ``--export`` (docs/opensim.md)
+EXPORT_FORMATS = ("opensim",)
+
+
+def export_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    """--export FORMAT (repeatable): also write ``what`` for another program."""
+    parser.add_argument("--export", choices=EXPORT_FORMATS, action="append", default=[],
+                        metavar="FORMAT",
+                        help=f"also write {what} for another program: opensim (the model "
+                             f"NAME.osim, its motion NAME.mot in degrees, the ground "
+                             f"reactions NAME_grf.sto with NAME_external_loads.xml, the "
+                             f"joint torques and an inverse-dynamics setup; docs/opensim.md)")
+
+
+def check_exports(args: argparse.Namespace, problem: Problem) -> None:
+    """Before any output: the walker of ``problem`` can be written in every ``--export``
+    format (a ProblemError otherwise)."""
+    if "opensim" in args.export:
+        from pdw_casadi.model.system import gait_system
+        from pdw_casadi.report.opensim import skeleton
+
+        skeleton(problem, gait_system(problem))
+
+
+def write_exports(args: argparse.Namespace, outputs: Outputs, export) -> None:
+    """Run ``export()`` (-> :class:`pdw_casadi.report.opensim.OpenSimExport`) when
+    ``--export opensim`` was given and register its files; a gait the export cannot
+    simulate (it falls within the two steps) is a warning, not an error."""
+    import sys
+
+    if "opensim" not in args.export:
+        return
+    try:
+        ex = export()
+    except ProblemError as exc:
+        print(f"warning: no OpenSim export: {exc}", file=sys.stderr)
+        return
+    for path in ex.to_dict().values():
+        outputs.wrote(Path(path))
+    print(f"wrote OpenSim files {ex.model.name}, {ex.motion.name}, {ex.forces.name}, "
+          f"{ex.external_loads.name} ({len(ex.samples.time)} frames) in "
+          f"{outputs.final(ex.model).parent}")

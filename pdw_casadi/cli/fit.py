@@ -10,11 +10,14 @@ from pathlib import Path
 
 from pdw_casadi.cli.common import (
     check_curve_walker,
+    check_exports,
     common_parser,
+    export_argument,
     load_cli_problem,
     parallel_arguments,
     parse_command,
     require_one_leg_set,
+    write_exports,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -77,7 +80,8 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     that has one, its comparison walker; the gait events marked), ``limit_cycle.png``
     (Fig. 4) and ``table.md`` (R^2, then the gait timing beside human values).
     ``--timing [W]`` adds the timing target (:class:`~pdw_casadi.fit.FitOptions`
-    ``timing_weight``).
+    ``timing_weight``). ``--export opensim`` adds the OpenSim files of two steps of the
+    fitted gait (:mod:`pdw_casadi.report.opensim`).
     Exit code 1 when no stable valid gait was found (the outputs then describe the best
     candidate and say so). The walker needs knee and hip outputs and something to fit
     (compliance values, or ``--free-slope``).
@@ -115,6 +119,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                         help="NLP solves per start: a further one is built at the answer only "
                              "when the objective's sample brackets moved (default: %(default)s)")
     parallel_arguments(parser, "the multistart")
+    export_argument(parser, "two steps of the fitted gait")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
@@ -139,6 +144,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         else:
             human = load_gait_file(args.gait)
         problem = load_cli_problem(args)
+        check_exports(args, problem)
         if isinstance(human, SideCurves):
             return _fit_stride_body(args, outputs, problem, human)
         if args.side is not None:
@@ -177,6 +183,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
                      "ipopt.log"):
             outputs.wrote(out / name)
+        _export_fit(args, outputs, problem, summary, out)
         print(summary["headline"])
         print(f"wrote {outputs.dir}")
         if not (summary["stable"] and summary["valid"]):
@@ -222,11 +229,26 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
                                     log=lambda m: print(m, file=sys.stderr, flush=True))
     for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
         outputs.wrote(out / name)
+    _export_fit(args, outputs, problem, summary, out)
     print(summary["headline"])
     print(f"wrote {outputs.dir}")
     if not summary["accepted"]:
         raise NoGait(f"no stable valid stride: {summary['headline']}")
     return 0
+
+
+def _export_fit(args, outputs: Outputs, problem: Problem, summary: dict, out: Path) -> None:
+    """--export: two steps of the fitted gait (the best candidate, as the report; none
+    when no solve gave one)."""
+    if "fixed_point" not in summary:
+        return
+    from pdw_casadi.report.opensim import export_gait, fitted_problem
+
+    def export():
+        fitted = fitted_problem(problem, summary)
+        return export_gait(fitted, fitted.state_vector(), out, steps=2)
+
+    write_exports(args, outputs, export)
 
 
 def load_fit_start(problem: Problem, path: Path) -> Problem:

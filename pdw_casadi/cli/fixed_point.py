@@ -11,10 +11,13 @@ import numpy as np
 
 from pdw_casadi.cli.common import (
     TOL_RANGE,
+    check_exports,
     common_parser,
+    export_argument,
     load_cli_problem,
     parse_command,
     tolerance,
+    write_exports,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -32,8 +35,9 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     spectral_radius, stable, step_time_s, step_length_m, speed_m_s, margins, valid,
     failure, distance_from_initial, timing: stance/swing/double support %, cadence, gait
     events, :mod:`pdw_casadi.gait.timing`; identical for identical runs) and ``limit_cycle.png``
-    (paper's Fig. 4); the wall time goes to stdout only. Exit code 1 when Newton (and its
-    IPOPT fallback) found no fixed point.
+    (paper's Fig. 4); with ``--export opensim`` the OpenSim files of two steps of the gait
+    (:mod:`pdw_casadi.report.opensim`); the wall time goes to stdout only. Exit code 1
+    when Newton (and its IPOPT fallback) found no fixed point.
     """
     parser = Parser(
         prog="pdw-fixed-point", parents=[common_parser()],
@@ -44,10 +48,12 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--stride", action="store_true",
                         help="solve on the stride map (two steps, one per physical leg); "
                              "always so when the problem's legs differ")
+    export_argument(parser, "two steps of the periodic gait")
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
+        check_exports(args, problem)
         outputs.check()
         from pdw_casadi.gait.fixed_point import find_fixed_point
         from pdw_casadi.gait.simulate import Simulator
@@ -89,6 +95,11 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
                              faces=faces,
                              title=f"{problem.name}: limit cycle of one leg over two steps")
+        if res.converged:
+            from pdw_casadi.report.opensim import export_gait
+
+            write_exports(args, outputs, lambda: export_gait(
+                problem, res.state, out, parameters=res.parameters, steps=2))
         ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
         print(f"converged={res.converged} residual={res.residual:.2e} "
               f"iterations={res.iterations} spectral radius={res.spectral_radius:.4f} "

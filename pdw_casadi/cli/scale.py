@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import sys
 import time
 
@@ -23,9 +24,12 @@ from pdw_casadi.studies.scaling import (
     reference_mass,
     scale_problem,
     scaled_state,
+    stable_subject_walker,
     subject_row,
-    subject_walker,
 )
+
+#: the default largest spectral radius of the de Leva body's gait
+STABLE_RADIUS = inspect.signature(stable_subject_walker).parameters["max_radius"].default
 
 
 def scale_main(argv=None) -> int:
@@ -33,10 +37,11 @@ def scale_main(argv=None) -> int:
 
     ``--mass KG --height M [--sex female|male]`` or ``--subject ID`` (a bundled subject);
     ``--body deleva`` (default: the de Leva 1996 body, reached by continuation from the
-    uniformly scaled reference, compliance adapted) or ``--body uniform`` (the reference
-    scaled by the exact law only). Writes ``--out FILE.toml`` with the gait found as its
-    initial state; exit code 1 (nothing written) when the continuation does not reach the
-    subject.
+    uniformly scaled reference, compliance adapted, then the nearest gait with spectral
+    radius <= ``--max-radius``: :func:`~pdw_casadi.studies.scaling.stable_subject_walker`)
+    or ``--body uniform`` (the reference scaled by the exact law only). Writes ``--out
+    FILE.toml`` with the gait found as its initial state; exit code 1 (nothing written)
+    when the continuation does not reach the subject or no stable valid gait is found there.
     """
     parser = Parser(prog="pdw-scale", description="Scale the walker to a subject's body "
                     "(de Leva 1996 segment table).")
@@ -49,6 +54,10 @@ def scale_main(argv=None) -> int:
                         help="a bundled subject (mass, height and sex from "
                              "data/anthropometry/subjects.csv), e.g. WBDS09")
     parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
+    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
+                        default=STABLE_RADIUS, metavar="R",
+                        help="de Leva body: the largest spectral radius of the gait written "
+                             "(default: %(default)s)")
     parser.add_argument("--problem", default="humanlike_6link",
                         help="reference problem (default: %(default)s)")
     parser.add_argument("--out", type=output_path("--out"), required=True, metavar="FILE.toml")
@@ -82,20 +91,23 @@ def scale_main(argv=None) -> int:
                 ref, fp0.state, s))
             rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
         else:
-            res = subject_walker(who["mass_kg"], who["height_m"], who["sex"], ref,
-                                 log=lambda line: print(line, file=sys.stderr))
-            lam = res.path[-1][0]
-            if not res.reached:
-                raise NoGait(f"the continuation from the uniformly scaled reference stopped "
-                             f"at lambda = {lam:.4f} of the way to the subject's body "
-                             f"(best of {ref.name}'s reference gaits; nothing written)")
-            fp = res.fixed_point
-            pb, rho = res.problem.replace(name=args.out.stem), fp.spectral_radius
+            res = stable_subject_walker(who["mass_kg"], who["height_m"], who["sex"], ref,
+                                        max_radius=args.max_radius,
+                                        log=lambda line: print(line, file=sys.stderr))
+            cont = res.continued
+            lam = cont.path[-1][0]
+            if res.problem is None:
+                raise NoGait(f"{res.reason} (best of {ref.name}'s reference gaits; nothing "
+                             f"written)")
+            pb, rho = res.problem.replace(name=args.out.stem), res.spectral_radius
             held = ", ".join(f"{k} held at {v:.4g} from lambda {lam_:g}"
-                             for k, (lam_, v) in res.held.items()) or "none held"
-            note = (f"continuation in the body from the uniformly scaled reference ({res.start}"
-                    f" gait), {len(res.path)} points, compliance adapted; validity margins: "
-                    f"{held}; {'stable' if fp.stable else 'NOT stable'}, valid")
+                             for k, (lam_, v) in cont.held.items()) or "none held"
+            stab = (f"; then the nearest gait with rho <= {args.max_radius:g} (the fit's "
+                    f"stability row on the walker's own curves; the continued gait had rho "
+                    f"{res.rho_continued:.4f})" if res.stabilised else "")
+            note = (f"continuation in the body from the uniformly scaled reference ({cont.start}"
+                    f" gait), {len(cont.path)} points, compliance adapted; validity margins: "
+                    f"{held}{stab}; stable, valid")
         header = (f"# {who['mass_kg']:g} kg, {who['height_m']:g} m, {who['sex']}: written by "
                   f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
                   f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"

@@ -37,6 +37,7 @@ sweep = _script("sweep")
 scale = _script("scale")
 design = _script("design")
 atlas = _script("atlas")
+cohort = _script("cohort")
 
 
 def dispatch() -> None:

@@ -11,9 +11,12 @@ import numpy as np
 from pdw_casadi.cli.common import (
     MAX_SAMPLES,
     MAX_STEPS,
+    check_exports,
     common_parser,
+    export_argument,
     load_cli_problem,
     parse_command,
+    write_exports,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -89,11 +92,13 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     ||F(x0) - x0||, energy balance, failure, margins, problem, compliance, slope, timing
     per step and per cycle of two steps: :mod:`pdw_casadi.gait.timing`),
     ``angles.png`` and ``stick.png``; with ``--animate FILE.gif`` also an animation of the
-    walker over all steps (:mod:`pdw_casadi.report.animation`). A walker that falls is a result, not
-    an error: the outputs are written, ``failure`` says why, a warning goes to stderr, exit
-    code 0. A numerical divergence (non-finite or absurd states, a broken energy balance:
-    the step size is too large for the walker's stiffness) is not a fall: the outputs are
-    written and the exit code is 1. Long runs show a progress bar on stderr.
+    walker over all steps (:mod:`pdw_casadi.report.animation`); with ``--export opensim``
+    the OpenSim files of all the steps (:mod:`pdw_casadi.report.opensim`). A walker that
+    falls is a result, not an error: the outputs are written, ``failure`` says why, a
+    warning goes to stderr, exit code 0. A numerical divergence (non-finite or absurd
+    states, a broken energy balance: the step size is too large for the walker's
+    stiffness) is not a fall: the outputs are written (no export) and the exit code is 1.
+    Long runs show a progress bar on stderr.
     """
     parser = Parser(
         prog="pdw-simulate", parents=[common_parser()],
@@ -111,10 +116,12 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--fps", type=int_range("--fps", 1, 100), default=25, metavar="F",
                         help="frames per simulated second of the animation, 1..100 (default: "
                              "%(default)s)")
+    export_argument(parser, "all the simulated steps")
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
         problem = load_cli_problem(args)
+        check_exports(args, problem)
         outputs.check()
         if args.animate is not None:
             check_output_file(args.animate, "--animate", (".gif",))
@@ -160,8 +167,13 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                          fps=args.fps,
                          title=f"{problem.name}: {result.completed_steps} steps down a slope "
                                f"of {problem.slope:.4f} rad")
-        print(f"wrote {outputs.dir} ({summary['completed_steps']} of {args.steps} steps)")
         diverged = _divergence(result)
+        if not traj.empty and not diverged:  # a divergence has no motion worth exporting
+            from pdw_casadi.report.opensim import export_opensim
+
+            write_exports(args, outputs, lambda: export_opensim(
+                problem, result, out, sim.hs, p_steps or [p]))
+        print(f"wrote {outputs.dir} ({summary['completed_steps']} of {args.steps} steps)")
         if diverged:
             raise NoGait(diverged)
         if result.failure is not None:

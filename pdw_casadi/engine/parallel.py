@@ -36,7 +36,7 @@ def _pool_context():
 
 
 def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
-              scheduler: str | None = None) -> Iterator[R]:
+              scheduler: str | None = None, ordered: bool = True) -> Iterator[R]:
     """Yield ``fn(item)`` for every item, in input order, as soon as each is available.
 
     Args:
@@ -45,19 +45,28 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
         workers: processes of the local pool; 1 (or fewer) runs in this process.
         scheduler: address of a Dask scheduler; when given, the tasks run on that cluster
             and ``workers`` is ignored (the cluster has its own).
+        ordered: False yields each result as soon as its task ends, in completion order
+            (the caller matches results to items, e.g. by an id the result carries): a
+            consumer that saves every result at once then keeps all finished work.
 
     An exception raised by a task is re-raised here, when its result is reached.
     """
     items = list(items)
+    if not items:
+        return
     if scheduler is not None:
-        yield from _dask_map(fn, items, scheduler)
+        yield from _dask_map(fn, items, scheduler, ordered)
     elif workers > 1 and len(items) > 1:
         # a multiprocessing pool, not concurrent.futures: terminate() stops the workers at
         # once (Ctrl-C, a failed task, the consumer stopping) without tracebacks; the
-        # workers ignore Ctrl-C themselves, the parent stops them
+        # workers ignore Ctrl-C themselves, the parent stops them. chunksize 1: a task is
+        # handed out only when a worker is free (a worker never holds queued tasks)
         with _pool_context().Pool(processes=min(workers, len(items)),
                                   initializer=_ignore_sigint) as pool:
-            yield from pool.imap(fn, items)
+            if ordered:
+                yield from pool.imap(fn, items)
+            else:
+                yield from pool.imap_unordered(fn, items, chunksize=1)
     else:
         for item in items:
             yield fn(item)
@@ -67,11 +76,14 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _dask_map(fn, items, scheduler: str):
-    from dask.distributed import Client
+def _dask_map(fn, items, scheduler: str, ordered: bool = True):
+    from dask.distributed import Client, as_completed
 
     with Client(scheduler, set_as_default=False) as client:
         # pure=False: identical items are still separate tasks (no result sharing surprises)
         futures = client.map(fn, items, pure=False)
-        for fut in futures:
-            yield fut.result()
+        try:
+            for fut in (futures if ordered else as_completed(futures, loop=client.loop)):
+                yield fut.result()
+        finally:  # the consumer stopped (Ctrl-C, an error): the cluster drops the rest
+            client.cancel(futures)

@@ -149,6 +149,10 @@ class SimulationResult:
     state_names: tuple[str, ...]
     final_state: np.ndarray
     final_mode: dict
+    #: the mode vector (0/1, order of ``HybridSystem.mode_keys``) of every trajectory row,
+    #: rows aligned with ``trajectory``: the joint torques and contact forces of a sample
+    #: depend on it (knee springs engaged or not), the exports re-evaluate them
+    sample_modes: np.ndarray | None = None
 
     @property
     def events(self) -> pd.DataFrame:
@@ -522,7 +526,12 @@ class Simulator:
                                    "t": t, "kind": "failure"})
                 break
         traj = self._trajectory(rec, records, ps) if record else None
-        return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode)
+        modes = None
+        if record and rec:
+            modes = np.vstack([np.tile(np.asarray(c.mode_vector, float).reshape(1, hs.nm),
+                                       (len(c.times_s), 1)) for c in rec])
+        return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode,
+                                sample_modes=modes)
 
     def _drift(self, sr, run: _PhaseRun, x, p, mode, w0) -> float | None:
         """The energy-balance residual (J) of the step so far at state ``x`` when it exceeds

@@ -63,23 +63,6 @@ _RATES = ("dq1", "dq2", "dq3")
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
 
 
-#: the reference body's values a subject's body is made of (the 6-link walker's segments)
-SCALED_BODY = ("l_t", "l_s", "l_tc", "l_sc", "m_h", "m_t", "m_s", "m_f", "J_t", "J_s",
-               "l_f", "l_fc", "l_ft", "l_fh", "J_f")
-
-
-def check_scalable(problem: Problem) -> None:
-    """Raise :class:`ProblemError` unless ``problem`` can be a reference body: symmetric,
-    with a thigh, shank and foot (the segments of the de Leva table)."""
-    missing = [k for k in SCALED_BODY if k not in problem.anthropometry]
-    if missing:
-        raise ProblemError(f"{problem.name} ({problem.family}) cannot be scaled to a subject: "
-                           f"its body lacks {', '.join(missing)} (a walker with thigh, shank "
-                           f"and foot is needed, e.g. humanlike_6link)")
-    if problem.asymmetric:
-        raise ProblemError(f"{problem.name}: the reference body must be symmetric")
-
-
 def toml_string(text: str) -> str:
     """``text`` as a TOML basic string (quotes, backslashes and control characters
     escaped)."""
@@ -285,16 +268,23 @@ def reference_gaits(reference: Problem) -> list[tuple[str, Problem]]:
 
 
 def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
-                   reference: Problem | None = None, log=None) -> SubjectResult:
+                   reference: Problem | None = None, log=None,
+                   own_last: bool = False) -> SubjectResult:
     """:func:`walker_for_subject` from each of :func:`reference_gaits` in turn until one
     reaches the subject's body with a valid gait; else the attempt that got furthest.
-    ``log``: called with a line per attempt."""
+    ``log``: called with a line per attempt. ``own_last``: try the atlas gaits (the most
+    stable first) before the reference's own (the paper's Table 3 gait sits next to a fold;
+    for 62.45 kg, 1.695 m its continuation stops at lambda 0.578 after 94 s, the atlas's
+    rho 0.86 gait gets there in 62 s, 2 shared cores)."""
     from pdw_casadi.gait.fixed_point import find_fixed_point
 
     ref = reference or load_problem("humanlike_6link")
     best = None
     t0 = time.perf_counter()
-    for label, start in reference_gaits(ref):
+    gaits = reference_gaits(ref)
+    if own_last:
+        gaits = gaits[1:] + gaits[:1]
+    for label, start in gaits:
         fp0 = find_fixed_point(start)
         if not (fp0.converged and fp0.valid):
             continue
@@ -311,6 +301,146 @@ def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
         raise ProblemError(f"{ref.name}: no valid reference gait to start from")
     best.wall_time_s = time.perf_counter() - t0
     return best
+
+
+#: the body keys the de Leva scaling sets (:func:`subject_anthropometry`)
+SCALED_BODY = ("l_t", "l_s", "l_tc", "l_sc", "m_t", "m_s", "J_t", "J_s", "m_f", "l_f", "l_fc",
+               "l_ft", "l_fh", "J_f", "m_h")
+
+
+def check_scalable(problem: Problem) -> None:
+    """Raise :class:`ProblemError` unless ``problem``'s walker can be scaled to a subject:
+    the 6-link body (:data:`SCALED_BODY`), both legs alike, a per-leg walker (the body as a
+    runtime parameter of the continuation)."""
+    from pdw_casadi.model.system import per_leg_system
+
+    missing = [k for k in SCALED_BODY if k not in problem.anthropometry]
+    if missing:
+        raise ProblemError(f"{problem.name} ({problem.family}) cannot be scaled to a subject: "
+                           f"the de Leva scaling needs the 6-link body; no "
+                           f"{', '.join(missing)} (e.g. humanlike_6link has it)")
+    if problem.asymmetric:
+        raise ProblemError(f"{problem.name}: the reference body must be symmetric")
+    if per_leg_system(problem) is None:
+        raise ProblemError(f"{problem.name} ({problem.family}): no per-leg walker to carry "
+                           f"the gait onto a subject's body")
+
+
+def own_curves(problem: Problem, x, p):
+    """The gait-cycle curves of ``problem``'s gait through ``x`` at parameters ``p`` as a
+    target (:class:`~pdw_casadi.model.gait_data.GaitCurves`), or None when the step fails."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from pdw_casadi.gait.curves import cycle_curves
+    from pdw_casadi.gait.simulate import Simulator
+    from pdw_casadi.model.gait_data import GaitCurves
+
+    c = cycle_curves(Simulator(problem), x, p)
+    if c is None:
+        return None
+    frame = pd.DataFrame({"cycle_pct": c.cycle_pct, "hip_mean_deg": c.hip_deg,
+                          "knee_mean_deg": c.knee_deg, "thigh_mean_deg": c.thigh_deg})
+    return GaitCurves(frame, Path(f"<{problem.name} own gait>"), f"{problem.name} own gait")
+
+
+@dataclass
+class StableSubject:
+    """A subject's walker with a stable gait, or why there is none.
+
+    ``problem``: the walker on the subject's body with the stable gait as its initial state
+    (None when ``status`` is "failed", ``reason`` then says why); ``spectral_radius`` of that
+    gait; ``continued``: the :class:`SubjectResult` of the continuation; ``rho_continued``:
+    the spectral radius where the continuation ended; ``stabilised``: whether the nearest
+    stable gait had to be fitted (:func:`nearest_stable_gait`); wall times (s)."""
+
+    problem: Problem | None
+    status: str
+    reason: str = ""
+    spectral_radius: float = math.nan
+    valid: bool = False
+    continued: SubjectResult | None = None
+    rho_continued: float = math.nan
+    stabilised: bool = False
+    continuation_s: float = 0.0
+    stabilise_s: float = 0.0
+
+    def record(self) -> dict:
+        """The JSON-ready facts (no problem)."""
+        c = self.continued
+        return {"status": self.status, "reason": self.reason,
+                "spectral_radius": self.spectral_radius, "valid": self.valid,
+                "continuation_start": None if c is None else c.start,
+                "continuation_lambda": None if c is None or not c.path else c.path[-1][0],
+                "continuation_points": None if c is None else len(c.path),
+                "rho_continued": self.rho_continued, "stabilised": self.stabilised,
+                "continuation_s": self.continuation_s, "stabilise_s": self.stabilise_s}
+
+
+def nearest_stable_gait(problem: Problem, max_radius: float = 0.9, options=None):
+    """The stable (rho <= ``max_radius``), valid gait of ``problem``'s walker whose knee and
+    hip curves are closest (R^2) to those of its gait through its initial state: the fit
+    (:func:`~pdw_casadi.fit.fit_gait`, its stability row) with the walker's own curves as
+    the target, from that gait, compliance free. Returns the fit's best
+    :class:`~pdw_casadi.fit.Candidate` (None when it found none)."""
+    from pdw_casadi.fit import FitOptions, fit_gait
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+
+    fp = find_fixed_point(problem, fallback=False)
+    if not fp.converged:
+        raise ProblemError(f"{problem.name}: no fixed point near its initial state")
+    target = own_curves(problem, fp.state, fp.parameters)
+    if target is None:
+        raise ProblemError(f"{problem.name}: its gait's step fails")
+    opts = options or FitOptions(max_radius=max_radius, atlas="", verbose=False)
+    return fit_gait(problem, target, opts, log=lambda m: None).best
+
+
+def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
+                          reference: Problem | None = None, max_radius: float = 0.9,
+                          log=None) -> StableSubject:
+    """The reference walker on a subject's de Leva body with a stable, valid gait.
+
+    1. :func:`subject_walker`: the reference's gaits, each carried exactly to the uniformly
+       scaled body by the scaling law, then by continuation to the subject's proportions
+       (compliance adapted), until one gets there with a valid gait. The gait it ends on
+       is a fixed point but may be unstable (rho 1.013 for 62.45 kg, 1.695 m).
+    2. If its spectral radius exceeds ``max_radius``: :func:`nearest_stable_gait`, the
+       fit's stability row pulling the gait inside the stable region at the least change
+       of its curves.
+    Never raises for a subject without a stable gait: ``status`` "failed" and ``reason``.
+    """
+    ref = reference or load_problem("humanlike_6link")
+    check_scalable(ref)
+    t0 = time.perf_counter()
+    cont = subject_walker(mass_kg, height_m, sex, ref, log=log, own_last=True)
+    t1 = time.perf_counter()
+    fp = cont.fixed_point
+    out = StableSubject(None, "failed", continued=cont, continuation_s=t1 - t0,
+                        rho_continued=fp.spectral_radius if fp.converged else math.nan)
+    if not cont.reached:
+        out.reason = (f"the continuation to the subject's body stopped at lambda = "
+                      f"{cont.path[-1][0]:.4f}")
+        return out
+    body = cont.problem
+    if fp.stable and fp.valid and fp.spectral_radius <= max_radius:
+        out.problem, out.status = body, "accepted"
+        out.spectral_radius, out.valid = fp.spectral_radius, True
+        return out
+    if log is not None:
+        log(f"the gait on the subject's body has spectral radius {fp.spectral_radius:.4f}; "
+            f"fitting the nearest gait with rho <= {max_radius:g}")
+    best = nearest_stable_gait(body, max_radius)
+    out.stabilised, out.stabilise_s = True, time.perf_counter() - t1
+    if best is None:
+        out.reason = (f"no stable valid gait (rho <= {max_radius:g}) near the continued one "
+                      f"(rho {fp.spectral_radius:.4f})")
+        return out
+    out.problem = body.with_parameters(best.parameters).with_state(best.state)
+    out.status, out.spectral_radius = "accepted", best.fixed_point.spectral_radius
+    out.valid = bool(best.valid)
+    return out
 
 
 def problem_toml(problem: Problem, header: str = "") -> str:

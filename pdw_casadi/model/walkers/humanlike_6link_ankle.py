@@ -29,27 +29,16 @@ from dataclasses import dataclass
 
 from pdw_casadi.model.hybrid import SWITCH, Event
 from pdw_casadi.model.mechanics.torques import JointTorque, engageable_spring_damper
-from pdw_casadi.model.walkers.registry import register
 
 from . import humanlike_6link as base
 
 ANTHROPOMETRY_KEYS = base.ANTHROPOMETRY_KEYS
 EXTRA_COMPLIANCE = ("c_ankle_load", "ankle_rest", "k_clutch", "phi_clutch")
 COMPLIANCE_KEYS = base.COMPLIANCE_KEYS + EXTRA_COMPLIANCE
-STATE_KEYS = base.STATE_KEYS
-POSITIVE_KEYS = base.POSITIVE_KEYS
-NONNEGATIVE_COMPLIANCE = base.NONNEGATIVE_COMPLIANCE + ("c_ankle_load", "k_clutch")
+#: the extension's compliance values that must be >= 0
+EXTRA_NONNEGATIVE = ("c_ankle_load", "k_clutch")
+NONNEGATIVE_COMPLIANCE = base.NONNEGATIVE_COMPLIANCE + EXTRA_NONNEGATIVE
 EXTRA_MODES = ("load2", "clutch1", "clutch2", "armc1")
-PHASE_DESCRIPTIONS = base.PHASE_DESCRIPTIONS
-PHASE_CONTACTS = base.PHASE_CONTACTS
-LIMIT_CYCLE_LEGS = base.LIMIT_CYCLE_LEGS
-LEG_SEGMENTS = base.LEG_SEGMENTS
-CURVE_JOINTS = base.CURVE_JOINTS
-INSTANT_LABELS = base.INSTANT_LABELS
-COMPARISON_PROBLEM = base.COMPARISON_PROBLEM
-check_anthropometry = base.check_anthropometry
-#: keys a problem may set per physical leg: every compliance value (the extension's too)
-LEG_KEYS = {"compliance": COMPLIANCE_KEYS, "anthropometry": base.LEG_ANTHROPOMETRY_KEYS}
 
 
 @dataclass(frozen=True)
@@ -58,13 +47,6 @@ class AnkleExtension:
 
     compliance_keys: tuple[str, ...] = EXTRA_COMPLIANCE
     mode_keys: tuple[str, ...] = EXTRA_MODES
-    #: the forefoot rocker (heel off in single support, phase ``II_toe``): see
-    #: :mod:`pdw_casadi.model.walkers.humanlike_6link_heeloff`
-    forefoot_rocker: bool = False
-    #: rolling toe and heel arcs (compliance keys r_toe, r_heel) of angular span
-    #: ``arc_span`` (rad): see :mod:`pdw_casadi.model.walkers.humanlike_6link_arc`
-    rolling_feet: bool = False
-    arc_span: float = 0.0
     #: at the section (just after foot strike): the trailing ankle's clutch is engaged (it
     #: engaged in the previous stance), the leading one armed, no loading damper
     initial_mode = {"load2": 0.0, "clutch1": 0.0, "clutch2": 1.0, "armc1": 1.0}
@@ -96,7 +78,7 @@ class AnkleExtension:
                 return new
             if name == "toe_off":  # the trailing toe leaves: its clutch releases
                 return {**new, "clutch2": 0.0}
-            if name in ("heel_strike", "heel_strike_toe"):  # loading response begins
+            if name.startswith("heel_strike"):  # loading response begins (from any stance)
                 return {**new, "load2": 1.0}
             if name != "foot_strike":  # heel off: the stance ankle's elements carry on
                 return new
@@ -111,17 +93,8 @@ class AnkleExtension:
 EXTENSION = AnkleExtension()
 
 
-@register(
+build = base.register_six_link(
     "humanlike_6link_ankle",
-    description="The humanlike 6-link walker with passive ankle extensions (loading "
-                "damper, spring rest angle, clutch spring).",
-    anthropometry_keys=ANTHROPOMETRY_KEYS, compliance_keys=COMPLIANCE_KEYS,
-    state_keys=STATE_KEYS, positive_keys=POSITIVE_KEYS,
-    nonnegative_compliance=NONNEGATIVE_COMPLIANCE, check_anthropometry=check_anthropometry,
-    phase_descriptions=PHASE_DESCRIPTIONS, limit_cycle_legs=LIMIT_CYCLE_LEGS,
-    leg_segments=LEG_SEGMENTS, curve_joints=CURVE_JOINTS, instant_labels=INSTANT_LABELS,
-    comparison_problem=COMPARISON_PROBLEM, phase_contacts=PHASE_CONTACTS,
-    leg_keys=LEG_KEYS, build_per_leg=lambda name, g: base.build_per_leg(name, g, EXTENSION))
-def build(problem):
-    """The symbolic model (see :func:`pdw_casadi.model.walkers.humanlike_6link.build`)."""
-    return base.build(problem, EXTENSION)
+    "The humanlike 6-link walker with passive ankle extensions (loading damper, spring "
+    "rest angle, clutch spring).",
+    ext=EXTENSION, nonnegative_compliance=EXTRA_NONNEGATIVE)
