@@ -1,19 +1,19 @@
 """Console scripts of the toolkit.
 
 Each command is a ``*_main(argv=None)`` function registered in :data:`COMMANDS` and exposed
-as a console script in ``pyproject.toml`` (``pdw-simulate`` -> :func:`simulate_main`). All of
-them keep the contract of :mod:`pdw_casadi.cli.contract`: every argument, file, number,
-bound and address is checked before the output directory is created; bad input is one line
-``error: ...`` and exit code 2 with nothing written; "ran, but no gait" is exit code 1 with
-a ``no gait: <reason>`` line; never a traceback; Ctrl-C ends with one line naming what is on
-disk. They share:
+as a console script in ``pyproject.toml`` (``pdw-simulate`` ->
+:func:`~pdw_casadi.cli.simulate.simulate_main`). All of them keep the contract of
+:mod:`pdw_casadi.cli.contract`: every argument, file, number, bound and address is checked
+before the output directory is created; bad input is one line ``error: ...`` and exit code 2
+with nothing written; "ran, but no gait" is exit code 1 with a ``no gait: <reason>`` line;
+never a traceback; Ctrl-C ends with one line naming what is on disk. They share:
 
-- :func:`common_parser`: the parent argparse parser with ``--problem``, ``--state``,
-  ``--compliance`` and ``--out``;
-- :func:`load_cli_problem`: the problem with the ``--state`` / ``--compliance`` overrides
-  applied (overrides obey the problem's ``compliance_bounds``);
-- :func:`pdw_casadi.engine.jsonio.write_json`: JSON output with numpy scalars/arrays, paths and
-  non-finite floats (written as ``null``) handled.
+- :func:`~pdw_casadi.cli.common.common_parser`: the parent argparse parser with
+  ``--problem``, ``--state``, ``--compliance`` and ``--out``;
+- :func:`~pdw_casadi.cli.common.load_cli_problem`: the problem with the ``--state`` /
+  ``--compliance`` overrides applied (overrides obey the problem's ``compliance_bounds``);
+- :func:`pdw_casadi.engine.jsonio.write_json`: JSON output with numpy scalars/arrays, paths
+  and non-finite floats (written as ``null``) handled.
 
 Adding a command: write ``foo_main(argv=None)`` that builds a
 :class:`~pdw_casadi.cli.contract.Parser` with ``parents=[common_parser()]``, validates in a

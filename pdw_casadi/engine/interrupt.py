@@ -1,6 +1,6 @@
 """Ctrl-C and SIGTERM that no solver can swallow.
 
-Python raises :class:`KeyboardInterrupt` where the signal lands. Inside IPOPT that is one of
+Python raises ``KeyboardInterrupt`` where the signal lands. Inside IPOPT that is one of
 our CasADi callbacks: CasADi catches the exception, IPOPT ends with
 ``NonIpopt_Exception_Thrown`` and the caller would carry on as after a failed solve. So the
 handlers installed by :func:`handling` also *record* the signal: the IPOPT iteration
