@@ -45,6 +45,8 @@ class FitSolver:
         per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
         bound (default ``max_radius - radius_margin``; a stride's is that squared)."""
         self.nlp, self.opts, self.log = nlp, opts, log
+        if opts.jacobian not in ("structured", "casadi"):
+            raise ValueError(f"jacobian must be 'structured' or 'casadi', got {opts.jacobian!r}")
         errs = errors if errors is not None else curve_errors(nlp, human, opts.targets())
         rows, obj, self.E, self.ss = [], 0, {}, {}
         for target, (err, ss_tot) in errs.items():
@@ -72,7 +74,8 @@ class FitSolver:
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
             if opts.stability_constraint and nlp.free else None
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
-            self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w)
+            self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w,
+            nlp if opts.jacobian == "structured" else None)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
         self.lbg = np.r_[nlp.lbg, np.zeros(ne)]

@@ -44,6 +44,10 @@ class FitOptions:
     #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)
     start_r2_tolerance: float = 0.01
     atlas: str | None = None
+    #: the constraint Jacobian: "structured" (assembled from the shooting structure,
+    #: pdw_casadi.nlp.jacobian) or "casadi" (CasADi's Jacobian of the MX graph: slower, the
+    #: reference the structured one is tested against)
+    jacobian: str = "structured"
     max_iter: int = 300
     tol: float = 1e-6
     hessian: str = "limited-memory"
