@@ -35,8 +35,9 @@ class FitOptions:
     max_radius: float = 0.91
     radius_margin: float = 0.01
     stability_constraint: bool = True
-    #: the stability row: "eigenvalues" (rho_32 of the eigenvalue moduli) or "power"
-    #: (||J^k||_F^(1/k), k = ``stability_power``: smooth where eigenvalues collide)
+    #: the stability row: "eigenvalues" (rho_32 of the eigenvalue moduli), "schur" (the
+    #: same, smooth where the leading pair meets on the real axis: pdw_casadi.nlp.stability.
+    #: schur_radius) or "power" (||J^k||_F^(1/k), k = ``stability_power``)
     stability_bound: str = "eigenvalues"
     stability_power: int = 64
     multistart: int = 1
