@@ -40,6 +40,9 @@ class FitOptions:
     #: schur_radius) or "power" (||J^k||_F^(1/k), k = ``stability_power``)
     stability_bound: str = "eigenvalues"
     stability_power: int = 64
+    #: no iterate's stability row lies more than this above the bound (or the start's own
+    #: radius, if higher): IPOPT cuts back every step that would go there (None: no cap)
+    iterate_radius_slack: float | None = None
     multistart: int = 1
     #: starts whose curves fit the user's within this much mean R^2 of the best count as
     #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)

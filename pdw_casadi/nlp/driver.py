@@ -17,6 +17,7 @@ on the stability row's exact gradient from its own reverse sweep
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -70,12 +71,16 @@ class Iterate:
                 f"inf {self.infeasibility:.1e}  {r2}{rho}  {self.elapsed_s:6.1f} s")
 
 
-def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None):
+def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
+                  cap: list | None = None):
     """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT.
 
     With the :class:`~pdw_casadi.nlp.shooting.ShootingNLP` ``nlp`` whose unknowns start
     ``x``, the Jacobian of ``g_base`` is assembled from its structure
-    (:mod:`pdw_casadi.nlp.jacobian`), else CasADi differentiates the MX graph."""
+    (:mod:`pdw_casadi.nlp.jacobian`), else CasADi differentiates the MX graph. ``cap``
+    ([value] or [None], read at every evaluation): a stability row above the value is NaN,
+    which IPOPT treats as an evaluation error and answers by cutting its step back, so that
+    no iterate lies above it."""
     P = ca.MX.sym("p", 0, 1)
     dense = ca.Sparsity.dense
     if nlp is not None:
@@ -95,7 +100,7 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None):
         # at the answer); IPOPT's constraint Jacobian comes from ``jac_g`` below
         value = NumericFunction(
             "stability_row", [dense(n, 1)], [dense(1, 1)],
-            lambda a: [row.value(np.asarray(a[0]).ravel()[:n_w])],
+            lambda a: [capped(row.value(np.asarray(a[0]).ravel()[:n_w]), cap)],
             lambda name: NumericFunction(
                 name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
                 lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
@@ -107,6 +112,11 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None):
     nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
     jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, J], ["x", "p"], ["g", "jac_g_x"])
     return nlp, jac_g, keep
+
+
+def capped(v: float, cap: list | None) -> float:
+    """``v``, or NaN when it lies above ``cap[0]`` (see :func:`nlp_functions`)."""
+    return math.nan if cap and cap[0] is not None and v > cap[0] else v
 
 
 class Progress(ca.Callback):
