@@ -3,6 +3,7 @@ errors as extra unknowns, the optional timing term and the stability row."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import casadi as ca
@@ -45,6 +46,8 @@ class FitSolver:
         per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
         bound (default ``max_radius - radius_margin``; a stride's is that squared)."""
         self.nlp, self.opts, self.log = nlp, opts, log
+        if opts.jacobian not in ("structured", "casadi"):
+            raise ValueError(f"jacobian must be 'structured' or 'casadi', got {opts.jacobian!r}")
         errs = errors if errors is not None else curve_errors(nlp, human, opts.targets())
         rows, obj, self.E, self.ss = [], 0, {}, {}
         for target, (err, ss_tot) in errs.items():
@@ -71,8 +74,10 @@ class FitSolver:
         self.x = ca.vertcat(nlp.w, self.e)
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
             if opts.stability_constraint and nlp.free else None
+        self.cap = [None]  # set per solve (FitOptions.iterate_radius_slack)
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
-            self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w)
+            self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w,
+            nlp if opts.jacobian == "structured" else None, self.cap)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
         self.lbg = np.r_[nlp.lbg, np.zeros(ne)]
@@ -82,6 +87,9 @@ class FitSolver:
             bound = opts.max_radius - opts.radius_margin if radius_bound is None \
                 else radius_bound
             self.ubg = np.r_[self.ubg, bound]
+            # a stride's row is the per-step bound squared: so is its iterates' cap
+            self.per_step = radius_bound is not None
+            self.bound = bound
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
 
@@ -108,6 +116,16 @@ class FitSolver:
                             "show_eval_warnings": False})
         w0 = np.clip(w0, self.lo, self.hi)
         e0 = self.err(w0).full().ravel()
+        self.cap[0] = None
+        if self.row is not None and opts.iterate_radius_slack is not None:
+            # per-step units; the start's own radius if that is higher (a start above the
+            # bound must still be able to move)
+            def root(v):
+                return math.sqrt(v) if self.per_step else v
+            r0 = self.row.value(w0)
+            top = max(root(self.bound), root(r0) if np.isfinite(r0) else 0.0)
+            cap = top + opts.iterate_radius_slack
+            self.cap[0] = cap ** 2 if self.per_step else cap
         t0 = time.perf_counter()
         sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         interrupt.check()  # Ctrl-C inside IPOPT ends the solve, not the run: re-raise it

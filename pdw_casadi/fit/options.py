@@ -35,15 +35,27 @@ class FitOptions:
     max_radius: float = 0.91
     radius_margin: float = 0.01
     stability_constraint: bool = True
-    #: the stability row: "eigenvalues" (rho_32 of the eigenvalue moduli) or "power"
-    #: (||J^k||_F^(1/k), k = ``stability_power``: smooth where eigenvalues collide)
-    stability_bound: str = "eigenvalues"
+    #: the stability row: "eigenvalues" (rho_32 of the eigenvalue moduli), "schur" (the
+    #: same, smooth where the leading pair meets on the real axis: pdw_casadi.nlp.stability.
+    #: schur_radius) or "power" (||J^k||_F^(1/k), k = ``stability_power``)
+    #: "schur" by default: rho_32's kink where the leading pair meets the real axis is where
+    #: fits stalled at their optimum (docs/results/fit.md)
+    stability_bound: str = "schur"
     stability_power: int = 64
+    #: no iterate's stability row lies more than this above the bound (or the start's own
+    #: radius, if higher): IPOPT cuts back every step that would go there (None: no cap);
+    #: 0.01 keeps every iterate's rho_32 at or below max_radius, where fits used to leave
+    #: the stable region for hundreds of iterations (docs/results/fit.md)
+    iterate_radius_slack: float | None = 0.01
     multistart: int = 1
     #: starts whose curves fit the user's within this much mean R^2 of the best count as
     #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)
     start_r2_tolerance: float = 0.01
     atlas: str | None = None
+    #: the constraint Jacobian: "structured" (assembled from the shooting structure,
+    #: pdw_casadi.nlp.jacobian) or "casadi" (CasADi's Jacobian of the MX graph: slower, the
+    #: reference the structured one is tested against)
+    jacobian: str = "structured"
     max_iter: int = 300
     tol: float = 1e-6
     hessian: str = "limited-memory"

@@ -4,8 +4,9 @@ The NLP's rows are the multiple-shooting constraints and the caller's rows (spar
 depending on a few unknowns: CasADi colours their Jacobian into a few dozen sweeps) plus an
 optional stability row, which depends on every node. Left to CasADi, that one dense row would
 force one forward sweep per unknown, so the NLP is handed to IPOPT with its own
-constraint-Jacobian function (nlpsol's ``jac_g``): CasADi's sparse Jacobian of the other rows
-stacked on the stability row's exact gradient from its own reverse sweep
+constraint-Jacobian function (nlpsol's ``jac_g``): the sparse Jacobian of the other rows
+(assembled from the shooting structure, :mod:`pdw_casadi.nlp.jacobian`, or CasADi's) stacked
+on the stability row's exact gradient from its own reverse sweep
 (:mod:`pdw_casadi.nlp.stability`).
 
 - :func:`nlp_functions`: the (x, p) -> (f, g) function and the assembled Jacobian;
@@ -16,6 +17,7 @@ stacked on the stability row's exact gradient from its own reverse sweep
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -24,6 +26,7 @@ import numpy as np
 
 from pdw_casadi.engine import interrupt
 from pdw_casadi.engine.callback import NumericFunction
+from pdw_casadi.nlp.jacobian import StructuredJacobian
 from pdw_casadi.nlp.stability import StabilityRow
 
 #: IPOPT return statuses that count as a solved NLP
@@ -68,12 +71,24 @@ class Iterate:
                 f"inf {self.infeasibility:.1e}  {r2}{rho}  {self.elapsed_s:6.1f} s")
 
 
-def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int):
-    """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT."""
+def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
+                  cap: list | None = None):
+    """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT.
+
+    With the :class:`~pdw_casadi.nlp.shooting.ShootingNLP` ``nlp`` whose unknowns start
+    ``x``, the Jacobian of ``g_base`` is assembled from its structure
+    (:mod:`pdw_casadi.nlp.jacobian`), else CasADi differentiates the MX graph. ``cap``
+    ([value] or [None], read at every evaluation): a stability row above the value is NaN,
+    which IPOPT treats as an evaluation error and answers by cutting its step back, so that
+    no iterate lies above it."""
     P = ca.MX.sym("p", 0, 1)
     dense = ca.Sparsity.dense
-    jac_base = ca.Function("fit_jac_base", [x], [ca.jacobian(g_base, x)])
-    g, J = g_base, jac_base(x)
+    if nlp is not None:
+        structured = StructuredJacobian(nlp, g_base, x).function("fit_jac_base")
+        g, J = g_base, structured(x)
+    else:
+        structured = None
+        g, J = g_base, ca.Function("fit_jac_base", [x], [ca.jacobian(g_base, x)])(x)
     if row is not None:
         n = x.shape[0]
 
@@ -85,18 +100,23 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int):
         # at the answer); IPOPT's constraint Jacobian comes from ``jac_g`` below
         value = NumericFunction(
             "stability_row", [dense(n, 1)], [dense(1, 1)],
-            lambda a: [row.value(np.asarray(a[0]).ravel()[:n_w])],
+            lambda a: [capped(row.value(np.asarray(a[0]).ravel()[:n_w]), cap)],
             lambda name: NumericFunction(
                 name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
                 lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
         g = ca.vertcat(g_base, value(x))
         J = ca.vertcat(J, ca.horzcat(grad(x), ca.MX(1, n - n_w)))
-        keep = (grad, value)  # CasADi does not hold Python callbacks alive
+        keep = (grad, value, structured)  # CasADi does not hold Python callbacks alive
     else:
-        keep = ()
+        keep = (structured,)
     nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
     jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, J], ["x", "p"], ["g", "jac_g_x"])
     return nlp, jac_g, keep
+
+
+def capped(v: float, cap: list | None) -> float:
+    """``v``, or NaN when it lies above ``cap[0]`` (see :func:`nlp_functions`)."""
+    return math.nan if cap and cap[0] is not None and v > cap[0] else v
 
 
 class Progress(ca.Callback):

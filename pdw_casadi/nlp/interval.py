@@ -16,11 +16,12 @@ from __future__ import annotations
 import casadi as ca
 
 from pdw_casadi.engine.callback import NumericFunction
-from pdw_casadi.engine.compile import compiled
+from pdw_casadi.engine.compile import compiled, native
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem
 
 _CACHE: dict = {}
+_FAST: dict = {}  # key -> (interval, its Jacobian) symbolic, then their Native callables
 
 
 def interval_output_names(hs: HybridSystem, phase: str) -> list[str]:
@@ -80,6 +81,7 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
 def _compiled(hs: HybridSystem, phase: str, n_sub: int) -> NumericFunction:
     sym, jac = _symbolic(hs, phase, n_sub)
     fast, jac_fast = compiled([sym, jac], ("-O1",))
+    _FAST[(id(hs), phase, n_sub)] = (sym, jac)
     return NumericFunction.wrap(sym.name(), sym, fast,
                                 jacobian=lambda name: NumericFunction.wrap(name, jac_fast))
 
@@ -90,3 +92,15 @@ def compiled_interval(hs: HybridSystem, phase: str, n_sub: int) -> NumericFuncti
     if key not in _CACHE:
         _CACHE[key] = _compiled(hs, phase, n_sub)
     return _CACHE[key]
+
+
+def interval_natives(hs: HybridSystem, phase: str, n_sub: int) -> tuple:
+    """Numpy-level callables (:class:`~pdw_casadi.engine.compile.Native`, the same compiled
+    library) of the interval (x, p, m, h) -> (X, Y) and of its Jacobian (x, p, m, h, X, Y)
+    -> dX/dx, dX/dp, dX/dm (zero), dX/dh, dY/dx, dY/dp, dY/dm, dY/dh (rows: the samples in
+    vec order, sample-major; the nominal outputs X, Y are not read)."""
+    key = (id(hs), phase, n_sub)
+    compiled_interval(hs, phase, n_sub)
+    if len(_FAST[key]) == 2:
+        _FAST[key] = (*_FAST[key], *native(list(_FAST[key]), ("-O1",)))
+    return _FAST[key][2:]

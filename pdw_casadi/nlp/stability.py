@@ -91,6 +91,97 @@ def power_bound(J: np.ndarray, k: int = 64) -> tuple[float, np.ndarray]:
     return b, Abar
 
 
+def _smooth_relu(x: float, eps: float) -> tuple[float, float]:
+    """max(0, x) rounded over |x| < eps (C^1, >= max(0, x)) and its derivative."""
+    if x >= eps:
+        return x, 1.0
+    if x <= -eps:
+        return 0.0, 0.0
+    return (x + eps) ** 2 / (4 * eps), (x + eps) / (2 * eps)
+
+
+def _power_sum(s: float, p: float, q: int) -> tuple[float, float, float]:
+    """l1^q + l2^q of the roots of z^2 - s z + p (a polynomial in s, p) and its partials."""
+    e0, e1 = 2.0, s
+    d0s, d1s, d0p, d1p = 0.0, 1.0, 0.0, 0.0
+    for _ in range(q - 1):
+        e2 = s * e1 - p * e0
+        d2s = e1 + s * d1s - p * d0s
+        d2p = s * d1p - e0 - p * d0p
+        e0, e1, d0s, d1s, d0p, d1p = e1, e2, d1s, d2s, d1p, d2p
+    return e1, d1s, d1p
+
+
+def schur_radius(J: np.ndarray, q: int = RADIUS_NORM,
+                 eps: float = 0.2) -> tuple[float, np.ndarray]:
+    """rho_q of :func:`smooth_radius` made smooth where the leading pair of eigenvalues meets
+    on the real axis, and its gradient dJbar (J's shape).
+
+    The leading pair (the two eigenvalues of largest modulus) enters through its invariants
+    s = l1 + l2 and p = l1 l2, read off the 2 x 2 leading block T11 of J's ordered real
+    Schur form J = Z T Z^T (smooth in J while the pair stays apart from the other
+    eigenvalues, also where it is defective; ds = tr(W dJ V), dp = tr(adj(T11) W dJ V) with V
+    = Z[:, :2] and W the block's left projector). Its share of sum |l|^q is 2 p^(q/2) + a
+    smoothed max(0, l1^q + l2^q - 2 p^(q/2)): exactly |l1|^q + |l2|^q for a complex pair and
+    for real roots away from their meeting point, and an upper bound by at most ``eps``/2
+    of 2 p^(q/2) near it (so rho_q stays >= the spectral radius). The other eigenvalues
+    enter as in :func:`smooth_radius`. Falls back to :func:`smooth_radius` for a matrix
+    smaller than 3 x 3 or a pair not separated from the rest.
+    """
+    from scipy.linalg import schur, solve_sylvester
+
+    J = np.asarray(J, float)
+    n = J.shape[0]
+    lam = np.linalg.eigvals(J)
+    mag = np.sort(np.abs(lam))[::-1]
+    top = mag[0]
+    if n < 3 or top == 0 or not (mag[1] - mag[2]) > 1e-6 * top:
+        return smooth_radius(J, q)
+    A = J / top
+    cut = 0.5 * (mag[1] + mag[2]) / top
+    T, Z, sdim = schur(A, output="real", sort=lambda x, y: np.hypot(x, y) > cut)
+    if sdim != 2:
+        return smooth_radius(J, q)
+    T11, T12, T22 = T[:2, :2], T[:2, 2:], T[2:, 2:]
+    Y = solve_sylvester(T11, -T22, -T12)  # T11 Y - Y T22 = -T12
+    V = Z[:, :2]
+    W = np.hstack([np.eye(2), -Y]) @ Z.T
+    s, p = float(np.trace(T11)), float(np.linalg.det(T11))
+    adj = np.array([[T11[1, 1], -T11[0, 1]], [-T11[1, 0], T11[0, 0]]])
+    Ps, Ps_s, Ps_p = _power_sum(s, p, q)
+    if p > 0:
+        base = 2 * p ** (q / 2)
+        r, dr = _smooth_relu(Ps - base, eps * base)
+        # d base / dp; the relu's width eps base moves with p too
+        dbase = q * p ** (q / 2 - 1)
+        x = Ps - base
+        if abs(x) < eps * base:  # d/dp of (x + eps b)^2 / (4 eps b) at fixed x, via b
+            e = eps * base
+            dr_de = (x + e) / (2 * e) - (x + e) ** 2 / (4 * e ** 2)
+        else:
+            dr_de = 0.0
+        G = base + r
+        G_s = dr * Ps_s
+        G_p = dbase + dr * (Ps_p - dbase) + dr_de * eps * dbase
+    else:  # real roots of opposite signs (or a zero root): |l1|^q + |l2|^q = l1^q + l2^q
+        G, G_s, G_p = Ps, Ps_s, Ps_p
+    # the other eigenvalues (those of T22), as smooth_radius treats them; their invariant
+    # subspace has the right basis U = Z [Y; I] and the left rows L = Z[:, 2:]^T
+    lr, Vr = np.linalg.eig(T22)
+    Wr = np.linalg.inv(Vr)
+    mr = np.abs(lr)
+    S = G + float(np.sum(mr ** q))
+    rho_a = S ** (1.0 / q)
+    dS = G_s * (V @ W).T + G_p * (V @ adj @ W).T
+    U = Z @ np.vstack([Y, np.eye(n - 2)])
+    L = Z[:, 2:].T
+    mu = np.where(mr > 0, np.conj(lr) / np.where(mr > 0, mr, 1), 0)
+    X = (Vr * (q * mr ** (q - 1) * mu)) @ Wr
+    dS = dS + np.real(U @ X @ L).T
+    # rho = top rho_a(J / top): d rho / dJ = d rho_a / dA = (1/q) S^(1/q - 1) dS/dA
+    return float(top * rho_a), (1.0 / q) * S ** (1.0 / q - 1) * dS
+
+
 @dataclass
 class _Blocks:
     """Compiled pieces of one walker's chain (value and reverse mode of each)."""
@@ -208,8 +299,8 @@ class StabilityRow:
 
     def __init__(self, nlp, q: int = RADIUS_NORM, bound: str = "eigenvalues",
                  power: int = 64):
-        if bound not in ("eigenvalues", "power"):
-            raise ValueError(f"bound must be 'eigenvalues' or 'power', got {bound!r}")
+        if bound not in ("eigenvalues", "power", "schur"):
+            raise ValueError(f"bound must be 'eigenvalues', 'power' or 'schur', got {bound!r}")
         self.nlp, self.q, self.bound, self.power = nlp, q, bound, power
         hs = nlp.hs
         subs = {s.n_sub for s in nlp.specs}
@@ -333,6 +424,8 @@ class StabilityRow:
     def _bound(self, J):
         if self.bound == "power":
             return power_bound(J, self.power)
+        if self.bound == "schur":
+            return schur_radius(J, self.q)
         return smooth_radius(J, self.q)
 
     def gradient(self, w) -> np.ndarray:

@@ -307,7 +307,7 @@ class StrideDesignSolver:
         self.row = StabilityRow(nlp)
         self.n_w = nlp.w.shape[0]
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
-            nlp.w, obj, ca.vertcat(nlp.g, rows), self.row, self.n_w)
+            nlp.w, obj, ca.vertcat(nlp.g, rows), self.row, self.n_w, nlp)
         self.lbx, self.ubx = nlp.bounds(t_min=opts.t_min_s)
         ns = nlp.xs.shape[0]
         for name, (lo, hi) in (bounds or {}).items():
