@@ -99,7 +99,7 @@ def leftovers(folder: Path) -> list[str]:
     if not folder.is_dir():
         return []
     return [p.name for p in folder.iterdir()
-            if p.name.startswith(".pdw-partial-") or p.name.endswith(".partial")
+            if p.name.startswith(".pdw-partial-") or ".partial" in p.suffixes
             or p.name.startswith(".pdw-write-test-")]
 
 

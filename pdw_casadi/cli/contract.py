@@ -245,7 +245,8 @@ class Outputs:
         output of a command): written there, renamed to ``final`` by :meth:`commit`."""
         final = Path(final)
         final.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".partial",
+        # the final suffix last: writers that choose a format by it (a GIF) still can
+        fd, tmp = tempfile.mkstemp(prefix=f".{final.name}.", suffix=f".partial{final.suffix}",
                                    dir=final.parent)
         os.close(fd)
         self._outside[Path(tmp)] = final
