@@ -108,3 +108,13 @@ def impact_states(hs, table2_step, params):
     assert set(runs) == {"I", "II", "III"}
     return {tr.name: full_states(hs, runs[tr.source].iloc[[-1]])[:, 0]
             for tr in hs.model.transitions if tr.name != "toe_off"}
+
+
+def run(capsys, main, args):
+    """(exit code, stdout, stderr) of a command's main, SystemExit included."""
+    try:
+        code = main(args)
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err

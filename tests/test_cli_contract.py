@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run
 
 import pdw_casadi
 import pdw_casadi.cli as cli
@@ -31,14 +32,6 @@ HL = (ROOT / "problems" / "humanlike_6link.toml").read_text()
 CG = (ROOT / "problems" / "compass_gait.toml").read_text()
 
 
-def run(capsys, main, args):
-    """(exit code, stdout, stderr) of a command's main, SystemExit included."""
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_usage_error(code, err, *fragments):

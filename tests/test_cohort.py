@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import run
 
 from pdw_casadi.cli import COMMANDS
 from pdw_casadi.cli.cohort import cohort_main
@@ -42,13 +43,6 @@ SMALL = ["--problem", "kneed_walker", "--free-slope", "--max-iter", "8", "--roun
          "--body", "paper", "--quiet"]
 
 
-def run(capsys, main, args):
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 # -- reading a study -------------------------------------------------------------------------

@@ -20,6 +20,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import run
 
 from pdw_casadi.cli import atlas_main, design_main, fit_main, scale_main, simulate_main
 from pdw_casadi.cli.contract import Outputs, UsageError
@@ -32,14 +33,6 @@ ROOT = Path(__file__).resolve().parents[1]
 CG = ["--problem", "compass_gait"]
 
 
-def run(capsys, main, args):
-    """(exit code, stdout, stderr) of a command's main, SystemExit included."""
-    try:
-        code = main(args)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def one_error_line(code, err, *fragments, exit_code=2):
