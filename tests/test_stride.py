@@ -303,6 +303,7 @@ def test_stride_timing_per_leg(symmetric):
     assert abs(timing["left"].step_length_m - timing["right"].step_length_m) > 1e-6
 
 
+@pytest.mark.slow  # two further walkers (the ankle walker and its per-leg build) to compile
 def test_per_leg_ankle_walker_follows_each_leg():
     """The ankle walker's per-leg build (its extension's elements per leg too): with equal
     legs one step is the baked walker's; the loading damper acts on the leading leg (leg 2)

@@ -123,7 +123,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         if args.refit:
             from pdw_casadi.fit import FitOptions, RefitCorrector
 
-            corrector = RefitCorrector(problem, human, FitOptions(verbose=False))
+            corrector = RefitCorrector(problem, human, FitOptions(verbose=False, knee_floor=None))
         out = outputs.create()
         csv_path, partial = out / "sweep.csv", out / "sweep.partial.csv"
         outputs.keep_on_interrupt(partial.name)  # the rows found stay after a Ctrl-C

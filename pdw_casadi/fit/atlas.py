@@ -55,8 +55,8 @@ def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
     entries = []
     for target, r in ((t, r) for t in targets for r in radii):
         name = target.name
-        res = fit_gait(problem, target, FitOptions(max_radius=r, atlas="", verbose=False),
-                       log=lambda m: None)
+        opts = FitOptions(max_radius=r, atlas="", verbose=False, knee_floor=None)
+        res = fit_gait(problem, target, opts, log=lambda m: None)
         b = res.best
         if b is None:
             log(f"radius {r}: no stable valid gait ({res.notes})")

@@ -30,9 +30,16 @@ from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit.driver import FitSolver
 from pdw_casadi.fit.objective import TARGETS, CurveError
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.fit.result import Candidate, FitResult, Solve, evaluate_gait, mean_score
+from pdw_casadi.fit.result import (
+    Candidate,
+    FitResult,
+    Solve,
+    evaluate_gait,
+    mean_score,
+    reference_gait,
+)
 from pdw_casadi.fit.starts import Start, select_starts
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.nlp.shooting import ShootingNLP
 
@@ -52,7 +59,22 @@ def _consistency_gap(cand: Candidate, targets) -> float:
     return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in targets))
 
 
-def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print):
+def knee_floor(problem, human, opts: FitOptions) -> float | None:
+    """The knee R^2 floor of :attr:`FitOptions.knee_floor` as a number (None: no floor,
+    or "reference" and the problem's own compliance has no gait or no knee curve)."""
+    if opts.knee_floor is None or "knee" not in opts.targets():
+        return None
+    if opts.knee_floor == "reference":
+        value = reference_gait(problem, human).get("r2_knee")
+        return None if value is None or not np.isfinite(value) else float(value)
+    if isinstance(opts.knee_floor, str):
+        raise ValueError(f"knee_floor must be 'reference', a number or None, got "
+                         f"{opts.knee_floor!r}")
+    return float(opts.knee_floor)
+
+
+def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print,
+               floor: float | None = None):
     """One start: its fixed point, the NLP solve(s), checks. Returns (the best good round's
     candidate, else the last round's, or None; solves; notes)."""
     sim = Simulator(problem)
@@ -60,7 +82,15 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
     free = tuple(opts.free or problem.compliance_names) + (("slope",) if opts.free_slope else ())
     solves: list[Solve] = []
     notes: list[str] = []
-    fp0 = find_fixed_point(problem, start.state, start.parameters, max_iter=30, fallback=False)
+    fp0 = None
+    if np.array_equal(start.state, problem.state_vector()) and \
+            np.array_equal(start.parameters, problem.parameter_vector()):
+        own = own_fixed_point(problem)  # the report's reference and the start ranking's
+        if own.converged and own.method == "newton":
+            fp0 = own  # what the call below would return
+    if fp0 is None:
+        fp0 = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
+                               fallback=False)
     if not fp0.converged:
         notes.append(f"start {s} ({start.label}): no fixed point; skipped")
         log(notes[-1])
@@ -80,7 +110,7 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
         log(f"start {s} ({start.label}, rho {fp0.spectral_radius:.3f}) round {rnd}: "
             f"{len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} "
             "constraints")
-        out = FitSolver(nlp, human, opts, log=log).solve(nlp.w0)
+        out = FitSolver(nlp, human, opts, log=log, knee_floor=floor).solve(nlp.w0)
         u = nlp.unpack(out["w"])
         cand = evaluate_gait(problem, u["xs"], u["p"], human, sim, opts.resim_steps,
                              opts.resim_tol) if out["success"] else None
@@ -109,8 +139,8 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
 
 
 def _fit_start_task(args):
-    problem, human, opts, s, start = args
-    return _fit_start(problem, human, opts, s, start, log=lambda m: None)
+    problem, human, opts, s, start, floor = args
+    return _fit_start(problem, human, opts, s, start, log=lambda m: None, floor=floor)
 
 
 def fit_gait(problem, human, options: FitOptions | None = None, log=print,
@@ -129,14 +159,17 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     targets = opts.targets()
     t_start = time.perf_counter()
     starts = select_starts(problem, human, opts)
+    floor = knee_floor(problem, human, opts)
+    if floor is not None:
+        log(f"knee R^2 floor {floor:.4f}")
     for s, st in enumerate(starts):
         log(f"start {s}: {st.label}" + ("" if np.isnan(st.score) else
                                          f" (mean R^2 {st.score:.3f} before fitting)"))
     if len(starts) > 1 and (workers > 1 or scheduler):
-        tasks = [(problem, human, opts, s, st) for s, st in enumerate(starts)]
+        tasks = [(problem, human, opts, s, st, floor) for s, st in enumerate(starts)]
         results = list(map_tasks(_fit_start_task, tasks, workers=workers, scheduler=scheduler))
     else:
-        results = [_fit_start(problem, human, opts, s, st, log=log)
+        results = [_fit_start(problem, human, opts, s, st, log=log, floor=floor)
                    for s, st in enumerate(starts)]
     candidates = [r[0] for r in results if r[0] is not None]
     solves = [x for r in results for x in r[1]]
@@ -159,7 +192,8 @@ class RefitCorrector:
 
     def __init__(self, problem, human, options: FitOptions | None = None):
         self.problem, self.human = problem, human
-        self.options = options or FitOptions(verbose=False, atlas="")
+        # no knee floor: the swept value moves the problem's own gait with it
+        self.options = options or FitOptions(verbose=False, atlas="", knee_floor=None)
 
     def __call__(self, x_guess, p) -> FixedPointResult:
         pb = self.problem.with_parameters(p).with_state(np.asarray(x_guess, float))

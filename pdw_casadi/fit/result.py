@@ -10,7 +10,7 @@ import pandas as pd
 
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores, gait_cycle
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.timing import step_timing, timing_or_none
 
@@ -111,7 +111,7 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
 
 def reference_gait(problem, human) -> dict:
     """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
-    fp = find_fixed_point(problem)
+    fp = own_fixed_point(problem)
     out = {"problem": problem.name, "converged": fp.converged,
            "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
            "failure": fp.failure, "curves": None}

@@ -23,7 +23,7 @@ import pandas as pd
 from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores
-from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.fixed_point import own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 
 
@@ -94,7 +94,7 @@ def save_atlas(problem, entries: list[AtlasEntry], path: str | Path) -> Path:
 def own_gait(problem) -> tuple[pd.DataFrame, float] | None:
     """The 101-point knee/hip/thigh curves (deg) and the spectral radius of the problem's own
     fixed point, or None when its own parameters have no gait."""
-    fp = find_fixed_point(problem)
+    fp = own_fixed_point(problem)
     if not fp.converged:
         return None
     curves = cycle_curves(Simulator(problem), fp.state, fp.parameters)

@@ -10,6 +10,8 @@ eigenvalues of dP/dx at the fixed point (asymptotically stable: spectral radius 
 from __future__ import annotations
 
 import contextlib
+import copy
+import json
 import os
 import sys
 import tempfile
@@ -198,6 +200,24 @@ def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int
         x, converged = _ipopt_fixed_point(P, x, p, tol)
         method = "ipopt"
     return _finish(problem, P, x, p, converged, it, method, t_start, history)
+
+
+#: the problem's own fixed point, by the problem's content (a fit's report, start ranking and
+#: first start all need it; a few entries: one command uses one or two problems)
+_OWN: dict[str, FixedPointResult] = {}
+_OWN_SIZE = 8
+
+
+def own_fixed_point(problem) -> FixedPointResult:
+    """:func:`find_fixed_point` of ``problem`` from its own state and parameters, computed
+    once per process for a problem of the same content (a copy is returned: callers may
+    change it)."""
+    key = json.dumps(problem.to_dict(), sort_keys=True, default=str)
+    if key not in _OWN:
+        if len(_OWN) >= _OWN_SIZE:
+            _OWN.pop(next(iter(_OWN)))
+        _OWN[key] = find_fixed_point(problem)
+    return copy.deepcopy(_OWN[key])
 
 
 @contextlib.contextmanager

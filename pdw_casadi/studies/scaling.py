@@ -393,7 +393,8 @@ def nearest_stable_gait(problem: Problem, max_radius: float = 0.9, options=None)
     target = own_curves(problem, fp.state, fp.parameters)
     if target is None:
         raise ProblemError(f"{problem.name}: its gait's step fails")
-    opts = options or FitOptions(max_radius=max_radius, atlas="", verbose=False)
+    opts = options or FitOptions(max_radius=max_radius, atlas="", verbose=False,
+                                 knee_floor=None)
     return fit_gait(problem, target, opts, log=lambda m: None).best
 
 
