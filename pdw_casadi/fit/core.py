@@ -36,9 +36,9 @@ from pdw_casadi.fit.result import (
     Solve,
     evaluate_gait,
     mean_score,
-    reference_gait,
 )
-from pdw_casadi.fit.starts import Start, select_starts
+from pdw_casadi.fit.starts import Start, own_gait, select_starts
+from pdw_casadi.gait.curves import fit_scores
 from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.nlp.shooting import ShootingNLP
@@ -65,7 +65,8 @@ def knee_floor(problem, human, opts: FitOptions) -> float | None:
     if opts.knee_floor is None or "knee" not in opts.targets():
         return None
     if opts.knee_floor == "reference":
-        value = reference_gait(problem, human).get("r2_knee")
+        gait = own_gait(problem)  # the curves of reference_gait, computed once per process
+        value = None if gait is None else fit_scores(gait[0], human).get("r2_knee")
         return None if value is None or not np.isfinite(value) else float(value)
     if isinstance(opts.knee_floor, str):
         raise ValueError(f"knee_floor must be 'reference', a number or None, got "
