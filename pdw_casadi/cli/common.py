@@ -12,6 +12,7 @@ from pdw_casadi.cli.contract import (
     UsageError,
     finite_float,
     int_range,
+    open_interval,
     output_path,
 )
 from pdw_casadi.engine.errors import ProblemError
@@ -60,6 +61,87 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     return parent
 
 
+
+
+def max_iter_argument(parser, default: int) -> None:
+    """--max-iter N: IPOPT iterations per NLP solve (``default``: the options dataclass's)."""
+    parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=default,
+                        help="IPOPT iterations per solve (default: %(default)s)")
+
+
+def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool = False,
+                  title: str | None = None):
+    """The fit's flags (pdw-fit, pdw-cohort), their defaults read from ``defaults`` (a
+    :class:`~pdw_casadi.fit.FitOptions` or :class:`~pdw_casadi.fit.StrideFitOptions`;
+    default: ``StrideFitOptions()``): starts, targets, stability, IPOPT, the per-leg fit's
+    ``--side`` and ``--stride-start`` in their own group; ``timing``: also ``--timing
+    [W]``; ``title``: the group of the fit's flags (None: the parser's own options).
+    :func:`fit_options` turns the parsed flags into the options. Returns the per-leg
+    group (for a command's further per-leg flags)."""
+    from pdw_casadi.fit.stride_fit import StrideFitOptions
+
+    d = defaults or StrideFitOptions()
+    lo, hi = d.slope_bounds
+    top = parser
+    parser = parser if title is None else parser.add_argument_group(title)
+    parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000),
+                        default=d.multistart, metavar="N",
+                        help="starts: the problem's own gait, then the N - 1 gait-atlas "
+                             "entries whose curves fit best (default: %(default)s)")
+    parser.add_argument("--atlas", metavar="FILE",
+                        help="gait atlas of the further starts (default: the bundled one "
+                             "of the problem; 'none': no atlas)")
+    parser.add_argument("--free-slope", action="store_true",
+                        help=f"let the slope be an unknown too ({lo:g}..{hi:g} rad)")
+    parser.add_argument("--hip-target", choices=("hip", "thigh"), default=d.hip_target,
+                        help="hip curve in the objective: the paper's hip (thigh + slope) "
+                             "or the thigh from the vertical (default: %(default)s)")
+    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
+                        default=d.max_radius, metavar="R",
+                        help="largest accepted spectral radius per step, in (0, 1) "
+                             "(default: %(default)s)")
+    if timing:
+        parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0),
+                            nargs="?", const=1.0, default=d.timing_weight, metavar="W",
+                            help="also fit the timing: add W ((stance %% - human toe-off %%) "
+                                 "/ 10 %%)^2 to the objective (human toe off: the gait "
+                                 "file's toe_off_pct column, else 60 %%, Perry & Burnfield);"
+                                 " R^2 is unchanged (default W when given: 1)")
+    max_iter_argument(parser, d.max_iter)
+    parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=d.rounds,
+                        help="NLP solves per start: a further one is built at the answer only "
+                             "when the objective's sample brackets moved (default: %(default)s)")
+    g = top.add_argument_group(
+        "per-leg fit", "a curve file with per-side columns (knee_left_mean_deg, ...) "
+        "fits each leg to its side on the stride")
+    g.add_argument("--side", choices=("both", "left", "right"), default=None,
+                   help=f"per-leg fit: whose compliance is free (default: "
+                        f"{getattr(d, 'side', 'both')})")
+    g.add_argument("--stride-start", choices=("fit", "atlas"),
+                   default=getattr(d, "start", "fit"),
+                   help="per-leg fit: start from the symmetric fit to the mean of both "
+                        "sides, or from the atlas gait that fits that mean best (no extra "
+                        "solve) (default: %(default)s)")
+    return g
+
+
+def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
+    """The fit's settings of flags parsed by :func:`fit_arguments` (``--atlas none``: no
+    atlas): a :class:`~pdw_casadi.fit.StrideFitOptions` (``per_leg``: with ``--side`` and
+    ``--stride-start``) or a :class:`~pdw_casadi.fit.FitOptions`, with ``extra`` settings
+    of the caller's (e.g. ``verbose``)."""
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.fit.stride_fit import StrideFitOptions
+
+    atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+    values = dict(hip_target=args.hip_target, free_slope=args.free_slope,
+                  max_radius=args.max_radius, multistart=args.multistart, atlas=atlas,
+                  max_iter=args.max_iter, rounds=args.rounds,
+                  timing_weight=getattr(args, "timing", FitOptions.timing_weight), **extra)
+    if not per_leg:
+        return FitOptions(**values)
+    return StrideFitOptions(**values, side=args.side or StrideFitOptions.side,
+                            start=args.stride_start)
 
 
 def positive_int(text: str) -> int:

@@ -8,8 +8,9 @@ Poincare Jacobian, exact gradient), from the atlas starts (:mod:`pdw_casadi.fit.
 then checks the answer the way a reviewer would:
 
 - **re-simulation**: the NLP's section state and parameters are run through the
-  event-driven simulator for 20 steps; the largest deviation from the NLP's state must stay
-  below 1e-6 (the NLP's map is the simulator's map);
+  event-driven simulator for ``resim_steps`` steps; the largest deviation from the NLP's
+  state must stay below ``resim_tol`` (:class:`~pdw_casadi.fit.FitOptions`; the NLP's map
+  is the simulator's map);
 - **stability**: the simulator's exact-AD eigenvalues at its fixed point are the verdict
   (rho <= max_radius);
 - **validity**: the simulator's margins (contact forces, centre of pressure, clearance,

@@ -46,7 +46,7 @@ class Candidate:
     curves: pd.DataFrame
     resimulation_deviation: float
     objective: float
-    resim_tol: float = 1e-6
+    resim_tol: float = FitOptions.resim_tol
 
     @property
     def stable(self) -> bool:
@@ -92,7 +92,8 @@ def mean_score(c: Candidate, targets) -> float:
 
 
 def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
-                  resim_steps: int = 20, resim_tol: float = 1e-6) -> Candidate | None:
+                  resim_steps: int = FitOptions.resim_steps,
+                  resim_tol: float = FitOptions.resim_tol) -> Candidate | None:
     """Checks of a gait (x: section state, p: parameters): fixed point, stability, margins,
     ``resim_steps``-step re-simulation deviation of x itself, curves and R^2 against
     ``human``. None when the simulator finds no fixed point there."""

@@ -9,9 +9,9 @@ stride's Jacobian J_2 J_1 bounded by (``max_radius`` - ``radius_margin``)^2: a s
 steps, so the per-step bound squared. It starts from the symmetric fit to the mean of both
 sides (:func:`~pdw_casadi.fit.fit_gait`; with ``start="atlas"``, from the atlas gait that
 fits that mean best), repeated twice, and checks the answer on the stride map as
-the step fit does: 20-step re-simulation with the legs' parameters alternating (deviation
-< 1e-6), the stride fixed point, its exact-AD spectral radius (<= ``max_radius``^2) and
-validity. R^2 is that of the re-simulated gait, per leg
+the step fit does: ``resim_steps``-step re-simulation with the legs' parameters alternating
+(deviation < ``resim_tol``), the stride fixed point, its exact-AD spectral radius
+(<= ``max_radius``^2) and validity. R^2 is that of the re-simulated gait, per leg
 (:func:`pdw_casadi.gait.stride.stride_report`).
 """
 
@@ -91,8 +91,8 @@ class StrideCandidate:
     scores: dict
     resimulation_deviation: float
     objective: float = math.nan
-    resim_tol: float = 1e-6
-    max_radius: float = 0.91 ** 2
+    resim_tol: float = FitOptions.resim_tol
+    max_radius: float = FitOptions.max_radius ** 2
 
     @property
     def stable(self) -> bool:
@@ -129,9 +129,10 @@ class StrideFitResult:
     notes: list[str] = field(default_factory=list)
 
 
-def evaluate_stride(smap: StrideMap, xs_steps, theta, sides, resim_steps: int = 20,
-                    resim_tol: float = 1e-6, max_radius: float = 0.91 ** 2
-                    ) -> StrideCandidate | None:
+def evaluate_stride(smap: StrideMap, xs_steps, theta, sides,
+                    resim_steps: int = FitOptions.resim_steps,
+                    resim_tol: float = FitOptions.resim_tol,
+                    max_radius: float = FitOptions.max_radius ** 2) -> StrideCandidate | None:
     """Checks of a stride (``xs_steps``: the section state at the start of each of its two
     steps; ``theta``: physical parameters): the re-simulation deviation over ``resim_steps``
     steps with the legs' parameters alternating, the stride fixed point and its report, R^2

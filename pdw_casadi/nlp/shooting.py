@@ -52,6 +52,9 @@ H_MAX_FACTOR = 1.25  # largest RK4 step in the NLP, in units of the simulator's 
 #: margins are demanded this much beyond the problem's minimum (N or m), so that a binding
 #: margin still passes the simulator's strict check after IPOPT's 1e-8 feasibility
 MARGIN_SLACK = 1e-6
+#: the NLP's own slope bounds (rad) when a caller gives none (the fit has its own:
+#: FitOptions.slope_bounds)
+SLOPE_BOUNDS = (0.02, 0.30)
 N_SUB = 10  # RK4 steps per shooting interval (one compiled function per phase)
 
 
@@ -410,7 +413,7 @@ class ShootingNLP:
         return [(self.g_names[i], float(viol[i])) for i in order if viol[i] > 0]
 
     # -- bounds ------------------------------------------------------------------------------
-    def bounds(self, slope_bounds=(0.02, 0.30), t_min: float = 1e-3):
+    def bounds(self, slope_bounds=SLOPE_BOUNDS, t_min: float = 1e-3):
         """Lower and upper bounds of the unknowns (compliance from the problem file).
 
         ``t_min`` (s): shortest segment. The event order is part of the assumed gait

@@ -68,7 +68,7 @@ from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
 from pdw_casadi.model.problem import Problem, load_problem, problem_from_dict
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
-from pdw_casadi.studies.scaling import problem_toml
+from pdw_casadi.studies.scaling import BODY_MAX_RADIUS, problem_toml
 
 #: kinds of fit: "symmetric" (one-step fit, one set of compliance) and "sides" (per-leg
 #: fit on the stride); a study selects with "auto" (each file as its header says),
@@ -111,7 +111,7 @@ class CohortOptions:
     kind: str = "auto"
     body: str = "own"
     fit: StrideFitOptions = field(default_factory=lambda: StrideFitOptions(verbose=False))
-    body_max_radius: float = 0.9
+    body_max_radius: float = BODY_MAX_RADIUS
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -502,18 +502,21 @@ def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
         row.update(stance_pct=timing.stance_pct,
                    double_support_pct=timing.double_support_total_pct)
     row.update(status="accepted" if accepted else "rejected",
-               reason="" if accepted else _rejection(row, opts.max_radius, fp.failure))
+               reason="" if accepted else _rejection(row, opts, fp.failure))
     return row, cand.curves
 
 
-def _rejection(row: dict, max_radius: float, failure) -> str:
+def _rejection(row: dict, opts: FitOptions, failure) -> str:
+    """Why a fit's row was not accepted: its per-step radius above ``opts.max_radius``,
+    invalid, or re-simulated off its NLP answer (by more than ``opts.resim_tol``)."""
+    max_radius = opts.max_radius
     why = []
     if row["spectral_radius"] > max_radius or not row["stable"]:
         why.append(f"spectral radius {row['spectral_radius']:.4f} > {max_radius:g}")
     if not row["valid"]:
         why.append("invalid" + (f" ({failure})" if failure else "")
                    + (f", re-simulation deviation {row['resimulation_deviation']:.2e}"
-                      if not row["resimulation_deviation"] < 1e-6 else ""))
+                      if not row["resimulation_deviation"] < opts.resim_tol else ""))
     return "; ".join(why) or "not accepted"
 
 
@@ -552,7 +555,7 @@ def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions)
                step_length_asymmetry_pct=rep["step_length_asymmetry_pct"],
                step_time_asymmetry_pct=rep["step_time_asymmetry_pct"])
     row.update(status="accepted" if accepted else "rejected",
-               reason="" if accepted else _rejection(row, opts.max_radius, fp.failure))
+               reason="" if accepted else _rejection(row, opts, fp.failure))
     curves = pd.concat([rep["curves"][s].add_suffix(f"_{s}") for s in SIDES], axis=1)
     return row, curves
 
