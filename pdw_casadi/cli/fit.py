@@ -156,7 +156,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     """pdw-fit with per-side curves: each leg fitted to its side on the stride
     (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
     from pdw_casadi.fit.stride_fit import check_stride_targets
-    from pdw_casadi.gait.stride import StrideMap
+    from pdw_casadi.gait.stride import stride_map
     from pdw_casadi.report.fit_stride_report import fit_stride_and_report
 
     if args.timing:
@@ -171,7 +171,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
         raise UsageError(f"{problem.name} ({problem.family}) has no compliance values to fit "
                          f"per leg")
     try:
-        StrideMap(problem)
+        stride_map(problem)
     except ProblemError as exc:
         raise UsageError(str(exc)) from None
     outputs.check()

@@ -68,9 +68,9 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
         if stride:  # the two-step map: parameters follow the physical legs
-            from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point
+            from pdw_casadi.gait.stride import find_stride_fixed_point, stride_map
 
-            smap = StrideMap(problem)
+            smap = stride_map(problem)
             res = find_stride_fixed_point(problem, tol=args.tol, smap=smap)
         else:
             res = find_fixed_point(problem, tol=args.tol, verbose=True)

@@ -62,8 +62,9 @@ from pdw_casadi.engine.errors import GaitDataError, ProblemError, UsageError
 from pdw_casadi.engine.jsonio import jsonable
 from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit import FitOptions, fit_gait, mean_score
-from pdw_casadi.fit.stride_fit import StrideFitOptions, fit_stride
-from pdw_casadi.gait.stride import StrideMap
+from pdw_casadi.fit.core import fit_stride
+from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
 from pdw_casadi.model.problem import Problem, load_problem, problem_from_dict
@@ -532,7 +533,7 @@ def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions)
         row.update(status="failed", reason="; ".join(res.notes) or "the stride solve failed")
         return row, None
     fp, rep = cand.fixed_point, cand.report
-    names = list(StrideMap(problem).parameter_names)
+    names = list(stride_map(problem).parameter_names)
     for t in ("knee", "hip", "thigh"):
         vals = [cand.scores[s].get(f"r2_{t}") for s in SIDES]
         for s, v in zip(SIDES, vals, strict=True):
@@ -700,7 +701,7 @@ def check_walker(reference: Problem, entries: Sequence[StudyEntry], options: Coh
         if not reference.compliance:
             raise UsageError(f"{reference.name} has no compliance values to fit per leg")
         try:
-            StrideMap(reference)
+            stride_map(reference)
         except ProblemError as exc:
             raise UsageError(f"per-side fits: {exc}") from None
     fit_opts = symmetric_options(options.fit)

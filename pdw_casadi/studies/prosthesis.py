@@ -51,10 +51,10 @@ from pdw_casadi.gait.design import (
     symmetry_conditions,
 )
 from pdw_casadi.gait.stride import (
-    StrideMap,
     find_stride_fixed_point,
     physical_parameter_names,
     physical_parameter_vector,
+    stride_map,
     stride_report,
     with_physical_parameters,
 )
@@ -127,7 +127,7 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     if problem.asymmetric:
         raise ProblemError(f"{problem.name}: start from a symmetric walker")
     opts = options or DesignOptions()
-    smap = StrideMap(problem)
+    smap = stride_map(problem)
     if x0 is None:
         fp0 = find_stride_fixed_point(problem, smap=smap, tol=opts.tol)
         if not fp0.converged:
@@ -152,7 +152,7 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     designed = designed.replace(
         name=f"{problem.name}_prosthesis",
         initial_state=dict(zip(problem.initial_state, last.state, strict=True)))
-    smap_d = StrideMap(designed)
+    smap_d = stride_map(designed)
     fp = find_stride_fixed_point(designed, x0=last.state, theta=last.theta, tol=opts.tol,
                                  fallback=False, smap=smap_d)
     report = stride_report(smap_d, fp.state, fp.parameters)
@@ -550,7 +550,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     designed = with_physical_parameters(final, theta).replace(
         name=f"{problem.name}_prosthesis",
         initial_state=dict(zip(problem.initial_state, x, strict=True)))
-    smap = StrideMap(designed)
+    smap = stride_map(designed)
     fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=1e-10, fallback=False,
                                  smap=smap)
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
