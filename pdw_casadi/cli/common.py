@@ -197,6 +197,38 @@ def load_cli_problem(args: argparse.Namespace) -> Problem:
     return problem
 
 
+def load_gait_problem(args: argparse.Namespace, outputs: Outputs) -> Problem:
+    """The problem of a command that writes a walker's gait (pdw-simulate,
+    pdw-fixed-point): :func:`load_cli_problem`, then, before any output exists, its
+    ``--export`` formats and the output directory checked (not created)."""
+    problem = load_cli_problem(args)
+    check_exports(args, problem)
+    outputs.check()
+    return problem
+
+
+def command_map(problem: Problem, stride: bool = False):
+    """The periodic map a command works on: the stride (two steps, the parameters following
+    the physical legs) with ``stride`` or when the legs differ, else the step map
+    (:class:`~pdw_casadi.gait.poincare.PoincareMap`)."""
+    from pdw_casadi.gait.poincare import PoincareMap
+    from pdw_casadi.gait.stride import period_steps
+
+    return PoincareMap(problem, steps=2 if stride else period_steps(problem))
+
+
+def write_summary(outputs: Outputs, out: Path, summary: dict, hs) -> Path:
+    """Write ``summary.json`` into ``out`` with the units of its keys (of the walker ``hs``,
+    :func:`~pdw_casadi.model.units.summary_units`); registered with ``outputs``."""
+    from pdw_casadi.engine.jsonio import write_json
+    from pdw_casadi.model.units import summary_units
+
+    summary["units"] = summary_units(summary, hs)
+    path = outputs.wrote(out / "summary.json")
+    write_json(path, summary)
+    return path
+
+
 def gait_file(source: str, flag: str = "--gait"):
     from pdw_casadi.model.gait_data import load_gait_curves
 
