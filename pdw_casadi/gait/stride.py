@@ -30,7 +30,8 @@ from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
-from pdw_casadi.model.system import (  # noqa: F401 (the per-leg parameters, re-exported)
+from pdw_casadi.model.system import (  # noqa: F401 (the per-leg walker, re-exported)
+    per_leg_system,
     physical_parameter_names,
     physical_parameter_vector,
     with_physical_parameters,
@@ -58,9 +59,9 @@ StrideMap = stride_map
 def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = 1e-10,
                             max_iter: int = 30, fallback: bool = True,
                             smap: PoincareMap | None = None):
-    """Periodic gait of the stride map: S(x, theta) = x, :func:`~pdw_casadi.gait.fixed_point.
-    find_fixed_point` with ``steps=2``. The result's eigenvalues are those of dS/dx; its step
-    time and length are the stride's (s, m)."""
+    """Periodic gait of the stride map: S(x, theta) = x,
+    :func:`~pdw_casadi.gait.fixed_point.find_fixed_point` on the two-step map. The result's
+    eigenvalues are those of dS/dx; its step time and length are the stride's (s, m)."""
     smap = smap or stride_map(problem)
     return find_fixed_point(smap.problem, x0=x0, p=theta, tol=tol, max_iter=max_iter,
                             fallback=fallback, pmap=smap)

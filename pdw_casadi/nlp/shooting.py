@@ -159,8 +159,8 @@ class ShootingNLP:
     @classmethod
     def stride(cls, problem, x0, theta0=None, free: tuple[str, ...] = (), **kw):
         """The two-step (stride) NLP of ``problem``'s per-leg walker
-        (:func:`~pdw_casadi.gait.stride.per_leg_system`): parameters theta in the order of
-        :func:`~pdw_casadi.gait.stride.physical_parameter_names` (``free`` names from there, e.g.
+        (:func:`~pdw_casadi.model.system.per_leg_system`): parameters theta in the order of
+        :func:`~pdw_casadi.model.system.physical_parameter_names` (``free`` names from there, e.g.
         ``right.k_ankle``), step 1 with the left leg in stance, step 2 with the right, from
         section state ``x0`` (SI units)."""
         from pdw_casadi.gait.poincare import PoincareMap
