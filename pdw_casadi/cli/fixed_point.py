@@ -25,6 +25,7 @@ from pdw_casadi.cli.contract import (
     Parser,
     run,
 )
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
 
 
@@ -42,7 +43,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser = Parser(
         prog="pdw-fixed-point", parents=[common_parser()],
         description="Newton on the Poincare map with its exact AD Jacobian.")
-    parser.add_argument("--tol", type=tolerance(), default=1e-10,
+    parser.add_argument("--tol", type=tolerance(), default=FIXED_POINT_TOL,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
     parser.add_argument("--stride", action="store_true",

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, FixedPointResult, find_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.stride import (
     period_steps,
@@ -54,7 +54,7 @@ class NewtonCorrector:
     Picklable (the Poincare map is rebuilt from the walker cache in another process).
     """
 
-    def __init__(self, problem: Problem, tol: float = 1e-10, max_iter: int = 10):
+    def __init__(self, problem: Problem, tol: float = FIXED_POINT_TOL, max_iter: int = 10):
         self.problem = problem
         self.tol = tol
         self.max_iter = max_iter

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.poincare import PoincareError
 
 
@@ -44,7 +45,7 @@ class DesignOptions:
     failed solve down to ``min_step``.
     """
 
-    tol: float = 1e-10
+    tol: float = FIXED_POINT_TOL
     max_iter: int = 40
     min_alpha: float = 1e-4
     max_rel_change: float = 0.2

@@ -25,6 +25,9 @@ from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.model.margins import first_violation, slacks
 from pdw_casadi.model.system import gait_system
 
+#: |P(x) - x| (rad, rad/s) a periodic gait is solved to unless a caller asks otherwise
+FIXED_POINT_TOL = 1e-10
+
 
 @dataclass
 class Stability:
@@ -123,7 +126,7 @@ def validity_failure(margins: dict, problem, hs=None) -> str | None:
                            problem.validity)
 
 
-def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int = 30,
+def find_fixed_point(problem, x0=None, p=None, tol: float = FIXED_POINT_TOL, max_iter: int = 30,
                      fallback: bool = True, pmap: PoincareMap | None = None,
                      verbose: bool = False, steps: int = 1) -> FixedPointResult:
     """Fixed point of the periodic map of ``steps`` steps of ``problem`` (the step map, or

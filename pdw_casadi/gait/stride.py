@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
@@ -56,7 +56,7 @@ def period_steps(problem) -> int:
 StrideMap = stride_map
 
 
-def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = 1e-10,
+def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = FIXED_POINT_TOL,
                             max_iter: int = 30, fallback: bool = True,
                             smap: PoincareMap | None = None):
     """Periodic gait of the stride map: S(x, theta) = x,

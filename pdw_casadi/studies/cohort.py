@@ -477,14 +477,21 @@ def compliance_column(name: str, side: str | None = None) -> str:
     return base if unit is None else f"{base}_" + unit.replace(" ", "_").replace("/", "_per_")
 
 
-def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
-    res = fit_gait(problem, human, opts, log=lambda m: None)
+def _fit_outcome(res, score) -> tuple:
+    """(the fit's accepted candidate, else its best by ``score``, or None; whether it was
+    accepted; the row's solver columns) of a fit result (either kind)."""
     cand, accepted = res.best, res.best is not None
     if cand is None and res.candidates:
-        cand = max(res.candidates, key=lambda c: mean_score(c, res.targets))
+        cand = max(res.candidates, key=score)
     row: dict = {"solver_status": res.solves[-1].status if res.solves else None,
                  "iterations": int(sum(s.iterations for s in res.solves)),
                  "solves": len(res.solves)}
+    return cand, accepted, row
+
+
+def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
+    res = fit_gait(problem, human, opts, log=lambda m: None)
+    cand, accepted, row = _fit_outcome(res, lambda c: mean_score(c, res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "every start failed")
         return row, None
@@ -523,12 +530,7 @@ def _rejection(row: dict, opts: FitOptions, failure) -> str:
 
 def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions):
     res = fit_stride(problem, sides, opts, log=lambda m: None)
-    cand, accepted = res.best, res.best is not None
-    if cand is None and res.candidates:
-        cand = max(res.candidates, key=lambda c: c.mean_score(res.targets))
-    row: dict = {"solver_status": res.solves[-1].status if res.solves else None,
-                 "iterations": int(sum(s.iterations for s in res.solves)),
-                 "solves": len(res.solves)}
+    cand, accepted, row = _fit_outcome(res, lambda c: c.mean_score(res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "the stride solve failed")
         return row, None

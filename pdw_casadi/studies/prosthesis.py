@@ -50,6 +50,7 @@ from pdw_casadi.gait.design import (
     phase_time_conditions,
     symmetry_conditions,
 )
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.stride import (
     find_stride_fixed_point,
     physical_parameter_names,
@@ -486,7 +487,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                    for k in opts.mass_distribution}
     shared = ("slope",) if opts.free_slope else ()
     if x0 is None:
-        fp0 = find_stride_fixed_point(start, tol=1e-10)
+        fp0 = find_stride_fixed_point(start, tol=FIXED_POINT_TOL)
         if not fp0.converged:
             raise ProblemError(f"{start.name}: no periodic gait near its initial state")
         x0 = fp0.state
@@ -516,7 +517,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         if opts.diagnose:
             _log_diagnosis(solver, out, log)
         u = nlp.unpack(out["w"])
-        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=1e-10,
+        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=FIXED_POINT_TOL,
                                      fallback=False, smap=nlp.stride_map)
         report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
             if fp.converged else None
@@ -551,7 +552,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         name=f"{problem.name}_prosthesis",
         initial_state=dict(zip(problem.initial_state, x, strict=True)))
     smap = stride_map(designed)
-    fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=1e-10, fallback=False,
+    fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=FIXED_POINT_TOL, fallback=False,
                                  smap=smap)
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
     comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
