@@ -56,6 +56,14 @@ def test_the_stride_is_the_step_map_twice_one_class(step):
     # the walker's own (baked) step map: the same equations, another order of operations
     assert np.abs(s.x_next - one(one(fp.state))).max() < 1e-10
     assert np.abs(s.x_next - fp.state).max() < 1e-10  # a period-1 gait is period-2 too
+    # the re-simulation check of both maps: the gait repeats at every step's node (to its
+    # 1e-11 residual grown over 20 steps of this slightly unstable orbit, rho 1.0068); a
+    # node 1e-3 off is seen as 1e-3 off
+    dev1 = one.resimulation_deviation([fp.state], steps=20)
+    dev2 = stride.resimulation_deviation([fp.state, fp.state], theta, steps=20)
+    assert dev1 < 1e-7 and dev2 < 1e-7
+    off = stride.resimulation_deviation([fp.state, fp.state + 1e-3], theta, steps=20)
+    assert abs(off - 1e-3) < 1e-7
 
 
 def test_find_fixed_point_solves_both_maps(step):

@@ -34,7 +34,6 @@ from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
 from pdw_casadi.gait.curves import fit_scores
 from pdw_casadi.gait.fixed_point import FixedPointResult
 from pdw_casadi.gait.poincare import PoincareMap
-from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.stride import (
     find_stride_fixed_point,
     stride_report,
@@ -137,16 +136,9 @@ def evaluate_stride(smap: PoincareMap, xs_steps, theta, sides,
     steps; ``theta``: physical parameters): the re-simulation deviation over ``resim_steps``
     steps with the legs' parameters alternating, the stride fixed point and its report, R^2
     per leg against ``sides``. None when the simulator finds no stride fixed point there."""
-    x, x2 = (np.asarray(v, float) for v in xs_steps)
+    x = np.asarray(xs_steps[0], float)
     theta = np.asarray(theta, float)
-    sim = Simulator(smap.problem, smap.hs)
-    run = sim.run(x, None, steps=resim_steps, record=False,
-                  p_steps=list(smap.step_parameters(theta)))
-    if run.failure is None:
-        ps = run.poincare_states
-        dev = float(max(np.abs(ps[0::2] - x).max(), np.abs(ps[1::2] - x2).max()))
-    else:
-        dev = math.inf
+    dev = smap.resimulation_deviation(xs_steps, theta, resim_steps)
     fp = find_stride_fixed_point(smap.problem, x0=x, theta=theta, max_iter=15,
                                  fallback=False, smap=smap)
     if not fp.converged:

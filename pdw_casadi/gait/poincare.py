@@ -12,6 +12,7 @@ f(tau) dtau/dz. The same chain gives the derivative of the step time.
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -341,6 +342,23 @@ class PoincareMap:
             key = phase_key(phase, name)
             if key not in mins or v[j] < mins[key][0]:
                 mins[key] = (float(v[j]), vx[j] @ S + vp[j] @ sens.Sp)
+
+    def resimulation_deviation(self, xs_steps, p=None, steps: int = 20) -> float:
+        """The largest deviation (rad, rad/s) over ``steps`` simulated steps from
+        ``xs_steps[0]`` of each step's section state from the one given for it
+        (``xs_steps``: one state per step of the map, e.g. an NLP's nodes; the map's steps
+        repeat), with the map's parameters ``p``; inf when the walker fails on the way."""
+        xs = [np.asarray(v, float).ravel() for v in xs_steps]
+        p = self.default_parameters() if p is None else p
+        if self.steps == 1:
+            run = self.sim.run(xs[0], p, steps=steps, record=False)
+        else:
+            run = self.sim.run(xs[0], None, steps=steps, record=False,
+                               p_steps=list(self.step_parameters(p)))
+        if run.failure is not None:
+            return math.inf
+        ps = run.poincare_states
+        return float(max(np.abs(ps[k::self.steps] - x).max() for k, x in enumerate(xs)))
 
     def step_length(self, x_end, p_next) -> tuple[float, np.ndarray, np.ndarray]:
         """Length (m) of the step that ended in section state ``x_end`` (read from the
