@@ -27,6 +27,9 @@ from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.model.margins import first_violation, slacks
 from pdw_casadi.model.system import gait_system
 
+#: |P(x) - x| (rad, rad/s) a periodic gait is solved to unless a caller asks otherwise
+FIXED_POINT_TOL = 1e-10
+
 
 @dataclass
 class Stability:
@@ -125,22 +128,26 @@ def validity_failure(margins: dict, problem, hs=None) -> str | None:
                            problem.validity)
 
 
-def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int = 30,
+def find_fixed_point(problem, x0=None, p=None, tol: float = FIXED_POINT_TOL, max_iter: int = 30,
                      fallback: bool = True, pmap: PoincareMap | None = None,
-                     verbose: bool = False) -> FixedPointResult:
-    """Fixed point of the Poincare map of ``problem`` near ``x0`` with parameters ``p``.
+                     verbose: bool = False, steps: int = 1) -> FixedPointResult:
+    """Fixed point of the periodic map of ``steps`` steps of ``problem`` (the step map, or
+    the stride with ``steps=2``: :class:`~pdw_casadi.gait.poincare.PoincareMap`) near ``x0``
+    with parameters ``p``.
 
     Args:
         problem: the walker problem (its initial state and parameters are the defaults).
         x0: starting section state (problem order; rad, rad/s).
-        p: compliance + slope vector (problem order).
+        p: the map's parameters (default: its :meth:`~PoincareMap.default_parameters`: the
+            compliance + slope vector in problem order; of a stride, theta).
         tol: Euclidean norm of P(x) - x to reach.
         max_iter: Newton iterations before giving up (then IPOPT if ``fallback``).
+        pmap: the map (default: ``PoincareMap(problem, steps=steps)``).
     """
     t_start = time.perf_counter()
-    P = pmap or PoincareMap(problem)
+    P = pmap or PoincareMap(problem, steps=steps)
     x = np.asarray(problem.state_vector() if x0 is None else x0, float).ravel().copy()
-    p = np.asarray(problem.parameter_vector() if p is None else p, float).ravel()
+    p = np.asarray(P.default_parameters() if p is None else p, float).ravel()
     n = x.size
     history = []
     method = "newton"
