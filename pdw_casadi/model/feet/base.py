@@ -111,15 +111,21 @@ class Stage:
     heel's strike through the impact transition ``heel_strike`` (a name beginning with
     "heel_strike": extensions act at every heel strike by it); ``events``: its own
     failures (besides the pivot's normal force reaching zero); ``description``: a few words
-    for the figures; ``contacts``: what each leg touches (the gait timing)."""
+    for the figures; ``contacts``: what each leg touches (the gait timing).
+
+    A double-support stage after phase I (:meth:`Foot.trailing_stages`) has the trailing
+    foot on ``pivot`` (the stance foot flat) and is left at toe off, the pivot's normal
+    force reaching zero, through the smooth transition ``toe_off`` (a name beginning with
+    "toe_off": extensions act at every toe off by it) into phase II."""
 
     name: str
     pivot: Pivot
     entry_guard: str
     entry: str
-    heel_strike: str
+    heel_strike: str = ""
     events: list[Event] = field(default_factory=list)
     description: str = ""
+    toe_off: str = ""
 
 
 class FootLeg(ABC):
@@ -235,4 +241,10 @@ class Foot(ABC):
 
     def stages(self, stance: FootLeg, swing: FootLeg, ground: Ground) -> list[Stage]:
         """Single-support stages after the flat stance (phase II); none by default."""
+        return []
+
+    def trailing_stages(self, stance: FootLeg, swing: FootLeg, ground: Ground
+                        ) -> list[Stage]:
+        """Double-support stages after phase I, the trailing (``swing``) foot's contact
+        changing before toe off (:class:`Stage`); none by default."""
         return []

@@ -28,9 +28,14 @@ Contacts (rows; the first two multipliers are the contact force at the toe tip):
 - toes flat (``pivot("toe")``; the trailing foot in phase I, the stance foot after heel off,
   ``II_mtp``, and in phase III): tip (x, y) and the toes flat, the rear foot rotating about
   the MTP joint: the toes' centre of pressure from the MTP joint and its margin
-  (``copmargin_toes*``), the failures of it reaching the MTP joint or the toe tip (there the
-  toes would roll onto the tip: that pivot is not a phase of this walker) and of the heel
-  coming back down (phi back to 0);
+  (``copmargin_toes*``), the failure of it reaching the MTP joint and of the heel coming
+  back down (phi back to 0); its reaching the toe tip is the guard ``toes2_cop_at_tip`` of
+  the trailing foot in phase I (the toes roll onto the tip, smoothly: the toes' couple is
+  zero there) and a failure elsewhere (the walker has no phase for the stance toes on their
+  tip before the other heel strikes);
+- toe tip (``pivot("tip")``; the trailing foot in phase ``I_tip``, push-off about the tip):
+  two rows, the toes rotating about the tip (their coming back flat is a failure), left at
+  toe off (``toe_off_tip``, the tip's normal force reaching zero) into phase II;
 - heel point (phase III): as the flat foot's.
 
 ``TOES_LOCKED`` is the same foot with the MTP joint locked (qtoe = qf, no extra coordinate
@@ -59,13 +64,14 @@ HEEL_DOWN_ARM = 1e-6
 TOE_KEYS = ("l_toe", "l_toec", "m_toe", "J_toe")
 TOE_COMPLIANCE = ("k_mtp", "c_mtp", "mtp_rest")
 PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toes flat (heel up)",
+                      "I_tip": "leading foot flat + trailing toe-tip pivot",
                       "II": "single stance on the flat foot, swing toes free",
                       "II_stop": "single stance on the flat foot, swing toes on their stop",
                       "II_mtp": "single stance on the toes (heel off), swing",
                       "III": "trailing toes flat + leading heel pivot"}
-PHASE_CONTACTS = {"I": ("flat", "toe"), "II": ("flat", None), "II_stop": ("flat", None),
-                  "II_mtp": ("toe", None), "III": ("toe", "heel")}
-INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "heel_strike": "c",
+PHASE_CONTACTS = {"I": ("flat", "toe"), "I_tip": ("flat", "toe"), "II": ("flat", None),
+                  "II_stop": ("flat", None), "II_mtp": ("toe", None), "III": ("toe", "heel")}
+INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "toe_off_tip": "b", "heel_strike": "c",
                   "heel_strike_mtp": "c", "heel_off": "heel off", "toes_stop": "toes stop"}
 
 
@@ -199,6 +205,8 @@ class ToeFootLeg(FlatFootLeg):
 
     # -- the toes flat, the rear foot about the MTP joint -----------------------------------
     def pivot(self, end, arm_first=False):
+        if end == "tip" and not self.locked:
+            return self._tip_pivot()
         if self.locked or end != "toe":
             return super().pivot(end, arm_first)
         i, lt = self.leg, self.a["l_toe"]
@@ -213,9 +221,9 @@ class ToeFootLeg(FlatFootLeg):
                  f"toesload_{tag}": moment},
                 [Event(f"{tag}_cop_at_mtp", moment, -1, FAILURE,
                        "the toes' centre of pressure reaches the MTP joint"),
-                 Event(f"{tag}_cop_at_tip", lt * normal - moment, -1, FAILURE,
-                       "the toes' centre of pressure reaches the toe tip (the toes would "
-                       "roll onto the tip)")])
+                 Event(f"{tag}_cop_at_tip", lt * normal - moment, -1, GUARD,
+                       "the toes' centre of pressure reaches the toe tip: they roll onto "
+                       "it")])
 
         heel_down = Event(f"heel{i}_down", self.mtp_angle, -1, FAILURE,
                           "the heel comes back down (MTP angle back to 0)",
@@ -223,6 +231,19 @@ class ToeFootLeg(FlatFootLeg):
         return Pivot(tag, ca.vertcat(self.toe, lt * ca.cos(self.toes)),
                      (f"{tag}_x", f"{tag}_y", f"{tag}_flat"), events=[heel_down],
                      reading=reading)
+
+    def _tip_pivot(self) -> Pivot:
+        """The toes rolled onto their tip: the tip point (two rows), the toes rotating about
+        it; their coming back flat is a failure (the toes' angle from the ground, armed: it
+        leaves 0 at rest)."""
+        i = self.leg
+        tilt = (ca.pi / 2 - self.ground.gamma) - self.toes  # + : MTP joint above the tip
+        tag = f"tip{i}"
+        return Pivot(tag, self.toe, (f"{tag}_x", f"{tag}_y"),
+                     extras={f"toes{i}_tilt_deg": tilt * 180 / ca.pi},
+                     events=[Event(f"toes{i}_down", tilt, -1, FAILURE,
+                                   "the toes come back flat onto the ground",
+                                   arm_above=HEEL_DOWN_ARM)])
 
     def lowest(self, end):
         if self.locked or end != "toe":
@@ -295,6 +316,16 @@ class ToeFoot(FlatFoot):
     def attach(self, leg, angle, a, c, ground, *, root=None, ankle=None, extra=None):
         toes = None if self.locked else extra[0]
         return ToeFootLeg(leg, angle, a, c, ground, root=root, ankle=ankle, toes=toes)
+
+    def trailing_stages(self, stance, swing, ground):
+        """``I_tip``: the trailing toes rolled onto their tip (push-off about the tip,
+        module doc), entered where their centre of pressure reaches the tip; none when
+        locked."""
+        if self.locked:
+            return []
+        return [Stage("I_tip", swing.pivot("tip"), entry_guard="toes2_cop_at_tip",
+                      entry="toes_roll", toe_off="toe_off_tip",
+                      description=self.phase_descriptions["I_tip"])]
 
     def stages(self, stance, swing, ground):
         """``II_mtp``: the stance foot on its toes after heel off, the rear foot rotating

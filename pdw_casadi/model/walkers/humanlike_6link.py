@@ -243,6 +243,32 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         Event("toe_off", N_toe2, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
         *flat.events, *toe2.events, *toe2_read.events, *common_events,
     ]
+    # the foot's double-support stages after I (the trailing foot's contact changing),
+    # each left at toe off into II or entered by the next
+    trailing_transitions = []
+    trailing_phases = []
+    previous = "I"
+    for st in foot.trailing_stages(foot1, foot2, ground):
+        piv = st.pivot
+        kp = piv.rows.shape[0]
+        ph = make_phase(sysm, F_q, st.name, ContactSet(st.name, ca.vertcat(piv.rows, flat1_rows),
+                                                       piv.labels + flat1_labels))
+        N = ca.dot(ph.lam[0:2], n)
+        flat = foot1.flat_reading(ph.lam[kp:], single_support=False)
+        piv_read = piv.read(ph.lam[:kp])
+        ph.outputs = {**flat.outputs, f"release_N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
+                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, **piv_read.outputs}
+        ph.events = [
+            Event("toe_off", N, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
+            *flat.events, *st.events, *piv.events, *piv_read.events, *common_events,
+        ]
+        trailing_phases.append(ph)
+        trailing_transitions += [
+            make_transition(sysm, st.entry, previous, st.name, None, guard=st.entry_guard),
+            make_transition(sysm, st.toe_off, st.name, "II", None, guard="toe_off",
+                            mode_after=arm_swing_knee)]
+        previous = st.name
+
     # Phase II: single stance on the flat foot, swing leg free
     ph2 = make_phase(sysm, F_q, "II", contact_II)
     flat = foot1.flat_reading(ph2.lam, single_support=True)
@@ -255,7 +281,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     scuff_event = Event("toe_scuff", toe2_low, -1, FAILURE, "swing toe hits the ground",
                         arm_above=1e-4)
     ph2.events = [heel_strike_event, scuff_event, *flat.events, *common_events]
-    phases = [ph1, ph2]
+    phases = [ph1, *trailing_phases, ph2]
 
     # the swing foot's hold closes in phase II (an impact) into the phase held, which is
     # phase II with the hold's rows; the single support after it is that phase's
@@ -335,16 +361,17 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     ]
 
     # transitions: toe-off (no impact, arms the swing knee), heel strike, foot strike + swap
-    toe_off = make_transition(sysm, "toe_off", "I", "II", None, mode_after=arm_swing_knee)
+    toe_off = make_transition(sysm, "toe_off", "I", "II", None, mode_after=arm_swing_knee,
+                              guard="toe_off")
     heel = make_transition(sysm, "heel_strike", first_single, "III", contact_III,
-                           guard="heel_strike" if stages or hold else None)
+                           guard="heel_strike")
     heel.checks = {
         f"impulse_{toe1.tag}": ca.dot(heel.impulse[0:2], n),
         f"impulse_{heel2.tag}": ca.dot(heel.impulse[k1:k1 + 2], n),
         "heel1_rise_speed": ca.dot(ca.jtimes(foot1.end_point("heel"), q, heel.qd_plus), n),
     }
     foot_strike = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike,
-                                  ends_step=True)
+                                  ends_step=True, guard="foot_strike")
     imp = foot_strike.impulse
     k = toe1.rows.shape[0]
     checks, margins = foot2.flat_impulse_checks(imp[k:])
@@ -355,7 +382,8 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     qd_new = ca.vertcat(*[qd[i] for i in order[:6]], 0, 0, *[qd[i] for i in order[8:]])
     foot_strike.relabel = (q_new, qd_new)
     foot_strike.mode_after = after_foot_strike
-    transitions = [toe_off, *hold_transitions, heel, *stage_transitions, foot_strike]
+    transitions = [toe_off, *trailing_transitions, *hold_transitions, heel,
+                   *stage_transitions, foot_strike]
     if ext:
         for tr in transitions:
             tr.mode_after = ext.mode_rule(tr.name, tr.mode_after)
