@@ -243,7 +243,11 @@ class ToeFootLeg(FlatFootLeg):
                      extras={f"toes{i}_tilt_deg": tilt * 180 / ca.pi},
                      events=[Event(f"toes{i}_down", tilt, -1, FAILURE,
                                    "the toes come back flat onto the ground",
-                                   arm_above=HEEL_DOWN_ARM)])
+                                   arm_above=HEEL_DOWN_ARM),
+                             # the rear foot in line with the toes: the stop would close
+                             # on the tip (a rigid foot on its tip: no phase of this walker)
+                             Event(f"stop{i}_on_tip", self.mtp_angle, -1, FAILURE,
+                                   "the MTP joint reaches its stop on the toe tip")])
 
     def lowest(self, end):
         if self.locked or end != "toe":
