@@ -23,10 +23,13 @@ from pdw_casadi.model.walkers import FAMILIES
 from pdw_casadi.model.walkers import humanlike_6link_ankle as ankle
 from pdw_casadi.model.walkers.humanlike_6link import build, register_six_link
 
-#: a stiff, late clutch spring on the shipped state: the trailing toes roll onto their tip
-#: in phase I and the stance heel lifts in single support (phases I, I_tip, II, II_stop,
-#: II_mtp); the step then fails at the heel strike (the trailing toes' impulse pulls)
-HEEL_OFF = {"k_clutch": 200.0, "phi_clutch": 1.6, "k_mtp": 5.0}
+#: a stiff, late clutch spring on the shipped gait (found by scripts/toes_seed.py): the
+#: trailing toes roll onto their tip and leave the ground before the MTP joint reaches its
+#: stop, the swing toes spring back onto it, and the stance heel lifts in single support
+#: (phases I, I_tip, II, II_stop, II_mtp); the step then fails at the heel strike (the
+#: trailing toes' impulse pulls)
+HEEL_OFF = {"k_clutch": 136.3784, "phi_clutch": 1.6477, "ankle_rest": 0.4095, "k_ankle": 2.5905,
+            "k_mtp": 13.1144, "mtp_rest": -0.0285, "c_mtp": 0.0559}
 LOCKED = "test_toes_locked_6link"
 if LOCKED not in FAMILIES:  # registered once per session
     register_six_link(LOCKED, "The ankle walker with toe feet, MTP joints locked (a test's).",
@@ -53,11 +56,12 @@ def _run(sim, pb, steps=1, step_size=None):
 
 @pytest.fixture(scope="module")
 def plain_step(sim, toes):
-    """The shipped state and compliance: a whole step I, II, II_stop, III (the heel stays
-    down until the other heel strikes)."""
+    """The shipped gait: a whole step I, I_tip, I_stop, II_stop, III (the trailing toes roll
+    onto their tip, the foot reaches its stop there; the stance heel stays down until the
+    other heel strikes)."""
     res = _run(sim, toes)
     assert res.failure is None
-    assert [n for n, _ in res.steps[0].phases] == ["I", "II", "II_stop", "III"]
+    assert [n for n, _ in res.steps[0].phases] == ["I", "I_tip", "I_stop", "II_stop", "III"]
     return res
 
 
@@ -122,20 +126,13 @@ def test_extra_coordinates_and_the_leg_swap(toes):
 # -- physics ------------------------------------------------------------------------------
 def test_energy_balance_over_a_step(sim, toes, plain_step):
     """Potential energy lost = damper work (ankles, knees, MTP joints) + impact losses
-    (toes' stop, heel strike, foot strike) + spring losses + the change of kinetic and spring
-    energy: the residual is RK4's error, converging at fourth order (16x smaller at half the
-    step, 8x asked). It is ~1e-3 J at the shipped 0.5 ms step, all of it from the swing toes
-    springing back to their stop in phase II (a few milliseconds, their inertia about the MTP
-    joint is 5e-5 kg m^2); every other phase conserves energy to 1e-7 J."""
+    (the toes' stop on the tip, heel strike, foot strike) + spring losses + the change of
+    kinetic and spring energy: the residual is RK4's error (below 1e-6 J at the shipped
+    0.5 ms step), converging at fourth order (16x smaller at half the step, 8x asked)."""
     st = plain_step.steps[0]
     coarse = abs(st.energy_residual_J)
     assert st.impact_loss_J > 0 and st.dissipated_damping_J > 0
-    assert coarse < 5e-3
-    traj = plain_step.trajectory
-    total = traj.kinetic_J + traj.potential_J + traj.spring_J + traj.damping_work_J
-    for name in ("I", "III"):
-        seg = total[traj.phase == name]
-        assert float(np.abs(seg - seg.iloc[0]).max()) < 1e-6, name
+    assert coarse < 1e-6
     fine = abs(_run(sim, toes, step_size=2.5e-4).steps[0].energy_residual_J)
     assert fine < coarse / 8
 
@@ -156,22 +153,25 @@ def test_energy_is_conserved_along_every_phase(heel_off_step):
         jumps = np.diff(total[idx])
         kept = [not any(t[i] <= tl <= t[j] for tl in losses)
                 for i, j in zip(idx[:-1], idx[1:], strict=True)]
-        assert len(jumps) > 5 and abs(jumps[kept].sum()) < 1e-5, name
+        assert len(jumps) >= 2 and abs(jumps[kept].sum()) < 1e-5, name
     # (toe off from I_tip releases the trailing ankle's clutch spring: a declared loss)
     for a, b in (("I", "I_tip"), ("II_stop", "II_mtp")):
         assert total[traj.phase == a][-1] == pytest.approx(total[traj.phase == b][0],
                                                            abs=1e-12)
 
 
-def _impact_states(plain_step, heel_off_step):
-    """(transition, pre-impact state) of every impact of the toe walker."""
+def _impact_states(hs, *runs):
+    """(transition, pre-impact state row) of every impact the runs went through: the last
+    sample of the phase that a guard with an impact ended."""
     out = []
-    for res, pairs in ((plain_step, [("toes_stop", "II"), ("heel_strike", "II_stop"),
-                                     ("foot_strike", "III")]),
-                       (heel_off_step, [("heel_strike_mtp", "II_mtp")])):
-        traj = res.trajectory
-        for tr, phase in pairs:
-            out.append((tr, traj[traj.phase == phase].iloc[-1]))
+    for res in runs:
+        traj, ev = res.trajectory, res.events
+        for _, e in ev[ev.kind == "guard"].iterrows():
+            tr = hs.transitions.get((e.phase, e.event))
+            if tr is None or tr.contact is None:
+                continue
+            rows = traj[(traj.phase == e.phase) & (traj.t <= e.t + 1e-12)]
+            out.append((tr.name, rows.iloc[-1]))
     return out
 
 
@@ -185,7 +185,9 @@ def test_impacts_balance_momentum_and_lose_energy(toes, plain_step, heel_off_ste
     names = hs.model.q_names
     trs = {t.name: t for t in hs.model.transitions}
     mq = ca.Function("mq", [q, hs.model.p], [sysm.M_q])
-    for name, row in _impact_states(plain_step, heel_off_step):
+    seen = set()
+    for name, row in _impact_states(hs, plain_step, heel_off_step):
+        seen.add(name)
         x = _state(row, names)
         imp = hs.impact_at(name, x, p)
         E = ca.Function("E", [q], [ca.jacobian(trs[name].contact.rows, q)])(x[:10]).full()
@@ -196,6 +198,8 @@ def test_impacts_balance_momentum_and_lose_energy(toes, plain_step, heel_off_ste
         ke = [hs.energy_at(s, p, hs.mode_vector(hs.model.initial_mode)).kinetic
               for s in (x, imp.x_post)]
         assert ke[0] - ke[1] >= 0, name
+    assert seen >= {"toes_stop", "toes_stop_tip", "heel_strike", "heel_strike_mtp",
+                    "foot_strike"}
 
 
 def test_contacts_hold_along_each_phase(toes, plain_step, heel_off_step):
@@ -222,7 +226,7 @@ def test_contacts_hold_along_each_phase(toes, plain_step, heel_off_step):
             assert np.abs(rows - rows[:, :1]).max() < 1e-9, ph.name
             assert np.abs(rates).max() < 1e-6, ph.name
             seen.add(ph.name)
-    assert seen == {"I", "I_tip", "II", "II_stop", "II_mtp", "III"}
+    assert seen == {"I", "I_tip", "I_stop", "II", "II_stop", "II_mtp", "III"}
 
 
 def test_heel_off_is_smooth(toes, heel_off_step):
@@ -245,7 +249,7 @@ def test_toes_roll_onto_the_tip_smoothly(heel_off_step):
     couple zero); in I_tip the toes rotate about the tip, which stays put."""
     traj = heel_off_step.trajectory
     i, tip = traj[traj.phase == "I"], traj[traj.phase == "I_tip"]
-    assert i.copmargin_toes2.iloc[-1] == pytest.approx(0, abs=1e-9)
+    assert i.release_copmargin_toes2.iloc[-1] == pytest.approx(0, abs=1e-9)
     assert tip.release_N_tip2.iloc[0] == pytest.approx(i.release_N_toes2.iloc[-1], rel=1e-9)
     assert tip.toes2_tilt_deg.iloc[-1] > 0.1
 

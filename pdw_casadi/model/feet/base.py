@@ -91,6 +91,8 @@ class Hold:
     guard: Event
     reading: Callable[[ca.SX], FlatReading]
     description: str = ""
+    #: failures of the free swing in phase II before the rows close
+    events: list[Event] = field(default_factory=list)
 
 
 @dataclass
@@ -126,6 +128,10 @@ class Stage:
     events: list[Event] = field(default_factory=list)
     description: str = ""
     toe_off: str = ""
+    #: a double-support stage entered through the impact that closes the swing foot's
+    #: :class:`Hold` (its rows added to the stage's contact), left at toe off into the held
+    #: single-support phase
+    closes_hold: bool = False
 
 
 class FootLeg(ABC):

@@ -61,17 +61,24 @@ from pdw_casadi.model.mechanics.torques import JointTorque, spring_damper
 #: rad, the MTP angle must have exceeded this in a phase that starts with the foot flat
 #: before its coming back to 0 (the heel down again) counts
 HEEL_DOWN_ARM = 1e-6
+#: m, how far below the ground the swing toe tip may go after toe off before that counts
+#: (it leaves the ground at height 0)
+TIP_DEPTH = 1e-6
 TOE_KEYS = ("l_toe", "l_toec", "m_toe", "J_toe")
 TOE_COMPLIANCE = ("k_mtp", "c_mtp", "mtp_rest")
 PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toes flat (heel up)",
                       "I_tip": "leading foot flat + trailing toe-tip pivot",
+                      "I_stop": "leading foot flat + trailing toe-tip pivot, toes on their "
+                                "stop (a rigid foot)",
                       "II": "single stance on the flat foot, swing toes free",
                       "II_stop": "single stance on the flat foot, swing toes on their stop",
                       "II_mtp": "single stance on the toes (heel off), swing",
                       "III": "trailing toes flat + leading heel pivot"}
-PHASE_CONTACTS = {"I": ("flat", "toe"), "I_tip": ("flat", "toe"), "II": ("flat", None),
+PHASE_CONTACTS = {"I": ("flat", "toe"), "I_tip": ("flat", "toe"), "I_stop": ("flat", "toe"),
+                  "II": ("flat", None),
                   "II_stop": ("flat", None), "II_mtp": ("toe", None), "III": ("toe", "heel")}
-INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "toe_off_tip": "b", "heel_strike": "c",
+INSTANT_LABELS = {"foot_strike": "a", "toe_off": "b", "toe_off_tip": "b", "toe_off_stop": "b",
+                  "heel_strike": "c",
                   "heel_strike_mtp": "c", "heel_off": "heel off", "toes_stop": "toes stop"}
 
 
@@ -205,8 +212,8 @@ class ToeFootLeg(FlatFootLeg):
 
     # -- the toes flat, the rear foot about the MTP joint -----------------------------------
     def pivot(self, end, arm_first=False):
-        if end == "tip" and not self.locked:
-            return self._tip_pivot()
+        if end in ("tip", "tip_stopped") and not self.locked:
+            return self._tip_pivot(stopped=end == "tip_stopped")
         if self.locked or end != "toe":
             return super().pivot(end, arm_first)
         i, lt = self.leg, self.a["l_toe"]
@@ -232,10 +239,11 @@ class ToeFootLeg(FlatFootLeg):
                      (f"{tag}_x", f"{tag}_y", f"{tag}_flat"), events=[heel_down],
                      reading=reading)
 
-    def _tip_pivot(self) -> Pivot:
+    def _tip_pivot(self, stopped: bool) -> Pivot:
         """The toes rolled onto their tip: the tip point (two rows), the toes rotating about
         it; their coming back flat is a failure (the toes' angle from the ground, armed: it
-        leaves 0 at rest)."""
+        leaves 0 at rest); the MTP joint reaching its stop is a guard (``stopped``: it is
+        there, held by the walker's hold rows)."""
         i = self.leg
         tilt = (ca.pi / 2 - self.ground.gamma) - self.toes  # + : MTP joint above the tip
         tag = f"tip{i}"
@@ -244,10 +252,11 @@ class ToeFootLeg(FlatFootLeg):
                      events=[Event(f"toes{i}_down", tilt, -1, FAILURE,
                                    "the toes come back flat onto the ground",
                                    arm_above=HEEL_DOWN_ARM),
-                             # the rear foot in line with the toes: the stop would close
-                             # on the tip (a rigid foot on its tip: no phase of this walker)
-                             Event(f"stop{i}_on_tip", self.mtp_angle, -1, FAILURE,
-                                   "the MTP joint reaches its stop on the toe tip")])
+                             # the rear foot in line with the toes: the stop closes on
+                             # the tip (a rigid foot on its tip, phase I_stop)
+                             *([] if stopped else [Event(
+                                 f"stop{i}_on_tip", self.mtp_angle, -1, GUARD,
+                                 "the MTP joint reaches its stop on the toe tip")])])
 
     def lowest(self, end):
         if self.locked or end != "toe":
@@ -272,10 +281,15 @@ class ToeFootLeg(FlatFootLeg):
                                [Event(f"stop{i}_release", lam[0], -1, FAILURE,
                                       "the swing toes leave their stop")])
 
+        # the tip leaves the ground at toe off at height 0: going below it (the toes
+        # springing back faster than the foot rises) is a contact the swing has no phase for
+        into = Event(f"tip{i}_into_ground", self.ground.height(self.toe) + TIP_DEPTH, -1,
+                     FAILURE, "the swing toe tip goes into the ground before its toes are back "
+                     "on their stop")
         return Hold("II_stop", "toes_stop", self.mtp_angle, (f"stop{i}",),
                     Event("toes_stop", self.mtp_angle, -1, GUARD,
                           "the swing toes come back in line with the rear foot (their stop)"),
-                    reading, PHASE_DESCRIPTIONS["II_stop"])
+                    reading, PHASE_DESCRIPTIONS["II_stop"], events=[into])
 
 
 class ToeFoot(FlatFoot):
@@ -329,7 +343,11 @@ class ToeFoot(FlatFoot):
             return []
         return [Stage("I_tip", swing.pivot("tip"), entry_guard="toes2_cop_at_tip",
                       entry="toes_roll", toe_off="toe_off_tip",
-                      description=self.phase_descriptions["I_tip"])]
+                      description=self.phase_descriptions["I_tip"]),
+                Stage("I_stop", swing.pivot("tip_stopped"), entry_guard="stop2_on_tip",
+                      entry="toes_stop_tip",
+                      toe_off="toe_off_stop", closes_hold=True,
+                      description=self.phase_descriptions["I_stop"])]
 
     def stages(self, stance, swing, ground):
         """``II_mtp``: the stance foot on its toes after heel off, the rear foot rotating

@@ -25,7 +25,7 @@ import math
 import casadi as ca
 
 from pdw_casadi.engine.errors import ProblemError
-from pdw_casadi.model.feet.base import Foot, Ground
+from pdw_casadi.model.feet.base import FlatReading, Foot, Ground
 from pdw_casadi.model.feet.flat import FLAT
 from pdw_casadi.model.hybrid import (
     FAILURE,
@@ -35,7 +35,7 @@ from pdw_casadi.model.hybrid import (
     make_phase,
     make_transition,
 )
-from pdw_casadi.model.margins import IMPULSE
+from pdw_casadi.model.margins import IMPULSE, output_margin
 from pdw_casadi.model.mechanics.planar import ContactSet, PlanarSystem
 from pdw_casadi.model.mechanics.torques import total_torque
 from pdw_casadi.model.sixlink.chain import ANTHROPOMETRY_KEYS, ankle_elements, leg_chain
@@ -233,7 +233,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     k = toe2.rows.shape[0]
     N_toe2 = ca.dot(lam[0:2], n)
     flat = foot1.flat_reading(lam[k:], single_support=False)
-    toe2_read = toe2.read(lam[:k])
+    toe2_read = _releasing(toe2.read(lam[:k]))
     # the trailing toe's force is the releasing contact (it is the guard, zero at toe-off),
     # so it is reported but is not a validity margin
     ph1.outputs = {**flat.outputs, f"release_N_{toe2.tag}": N_toe2,
@@ -244,29 +244,42 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         *flat.events, *toe2.events, *toe2_read.events, *common_events,
     ]
     # the foot's double-support stages after I (the trailing foot's contact changing),
-    # each left at toe off into II or entered by the next
+    # each left at toe off into II or entered by the next; a stage that closes the swing
+    # foot's hold is entered through its impact and left into the held phase
     trailing_transitions = []
     trailing_phases = []
     previous = "I"
     for st in foot.trailing_stages(foot1, foot2, ground):
         piv = st.pivot
-        kp = piv.rows.shape[0]
-        ph = make_phase(sysm, F_q, st.name, ContactSet(st.name, ca.vertcat(piv.rows, flat1_rows),
-                                                       piv.labels + flat1_labels))
+        kp, nf = piv.rows.shape[0], flat1_rows.shape[0]
+        extra_rows, extra_labels = (hold_rows, hold_labels) if st.closes_hold else (
+            ca.SX(0, 1), ())
+        contact = ContactSet(st.name, ca.vertcat(piv.rows, flat1_rows, extra_rows),
+                             piv.labels + flat1_labels + extra_labels)
+        ph = make_phase(sysm, F_q, st.name, contact)
         N = ca.dot(ph.lam[0:2], n)
-        flat = foot1.flat_reading(ph.lam[kp:], single_support=False)
-        piv_read = piv.read(ph.lam[:kp])
+        flat = foot1.flat_reading(ph.lam[kp:kp + nf], single_support=False)
+        piv_read = _releasing(piv.read(ph.lam[:kp]))
+        held = (hold.reading(ph.lam[kp + nf:]) if st.closes_hold
+                else _NOTHING)
         ph.outputs = {**flat.outputs, f"release_N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
-                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, **piv_read.outputs}
+                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, **piv_read.outputs,
+                      **held.outputs}
         ph.events = [
             Event("toe_off", N, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
-            *flat.events, *st.events, *piv.events, *piv_read.events, *common_events,
+            *flat.events, *st.events, *piv.events, *piv_read.events, *held.events,
+            *common_events,
         ]
         trailing_phases.append(ph)
+        entry = make_transition(sysm, st.entry, previous, st.name,
+                                contact if st.closes_hold else None, guard=st.entry_guard)
+        if st.closes_hold:
+            entry.checks = {f"impulse_{hold.labels[j]}": entry.impulse[kp + nf + j]
+                            for j in range(len(hold.labels))}
         trailing_transitions += [
-            make_transition(sysm, st.entry, previous, st.name, None, guard=st.entry_guard),
-            make_transition(sysm, st.toe_off, st.name, "II", None, guard="toe_off",
-                            mode_after=arm_swing_knee)]
+            entry, make_transition(sysm, st.toe_off, st.name,
+                                   hold.phase if st.closes_hold else "II", None,
+                                   guard="toe_off", mode_after=arm_swing_knee)]
         previous = st.name
 
     # Phase II: single stance on the flat foot, swing leg free
@@ -288,7 +301,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     hold_transitions = []
     previous = "II"
     if hold:
-        ph2.events.append(hold.guard)
+        ph2.events += [hold.guard, *hold.events]
         contact_held = ContactSet(hold.phase, ca.vertcat(flat1_rows, hold_rows),
                                   flat1_labels + hold_labels)
         phh = make_phase(sysm, F_q, hold.phase, contact_held)
@@ -415,6 +428,18 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         q_names=Q_NAMES + tuple(f"{e}{i}" for i in (1, 2) for e in foot.extra_coordinates),
         heel_strike_phase="III",
     )
+
+
+#: the reading of no rows
+_NOTHING = FlatReading({}, [])
+
+
+def _releasing(reading):
+    """A trailing contact's reading with its validity margins renamed ``release_*``: the
+    contact is releasing (its normal force falls to zero at toe off, the guard), so they are
+    reported, not required (its failures still end the step)."""
+    outs = {(f"release_{k}" if output_margin(k) else k): v for k, v in reading.outputs.items()}
+    return dataclasses.replace(reading, outputs=outs)
 
 
 def _unfollowed_guards_fail(phases, transitions):
