@@ -1,7 +1,7 @@
 """A search for heel-off gaits of the toe-foot walker (humanlike_toes), and what stops them.
 
     python scripts/toes_seed.py --out seeds.json [--problem humanlike_toes] [--samples 200]
-        [--seed 0] [--newton 20]
+        [--seed 0] [--newton 20] [--continue KEY TO NUM]
 
 The toe walker's phases follow its contacts, so a compliance far from a gait fails in its
 first step. This script samples the compliance values of :data:`RANGES` (uniformly, within
@@ -11,7 +11,9 @@ in single support (phase II_mtp) ended: the failure that stopped them, or a whol
 every whole step with heel off it solves for the fixed point (Newton on the exact step map,
 at most ``--newton`` iterations, from the step's end state) and records its phases, gait
 timing (heel off, toe off, stance, double support per period, % of the cycle), spectral
-radius, eigenvalues and validity, best (stable, valid, heel off in 25-40 %) first.
+radius, eigenvalues and validity, best (stable, valid, heel off in 25-40 %) first. With
+``--continue KEY TO NUM`` it instead follows the problem's fixed point in one compliance
+value (spectral radius, eigenvalues and the stance heel's load along the way).
 """
 
 from __future__ import annotations
@@ -52,6 +54,36 @@ def score(r) -> tuple:
             r["rho"])
 
 
+def continuation(pb, sim, key: str, stop: float, num: int) -> list[dict]:
+    """Natural-parameter continuation of ``pb``'s fixed point in compliance ``key`` up to
+    ``stop`` in ``num`` steps (Newton from the previous point): per point the spectral
+    radius, the eigenvalues, validity, phases and the smallest heel load of the stance foot
+    in single support (N m; heel off where it reaches zero)."""
+    x, p = pb.state_vector(), pb.parameter_vector()
+    i = list(pb.parameter_names).index(key)
+    rows = []
+    for v in np.linspace(p[i], stop, num):
+        q = p.copy()
+        q[i] = v
+        fp = find_fixed_point(pb, x, q, fallback=False, max_iter=15)
+        if not fp.converged:
+            rows.append({key: float(v), "converged": False})
+            break
+        x, p = fp.state, q
+        run = sim.run(x, p, steps=1, record=True)
+        traj = run.trajectory
+        single = traj[traj.phase.isin(["II", "II_stop"])]
+        load = single.heelload_foot1.min() if "heelload_foot1" in single else float("nan")
+        rows.append({key: float(v), "converged": True, "rho": float(fp.spectral_radius),
+                     "eigenvalues": [[float(e.real), float(e.imag)] for e in fp.eigenvalues],
+                     "valid": bool(fp.valid), "failure": fp.failure,
+                     "phases": [n for n, _ in run.steps[0].phases],
+                     "min_heel_load_Nm": float(load)})
+        print(f"{key} {v:.4g}: rho {fp.spectral_radius:.3g}, valid {fp.valid}, heel load "
+              f"{load:.3g} N m, phases {', '.join(rows[-1]['phases'])}", flush=True)
+    return rows
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", type=Path, required=True, help="JSON file to write")
@@ -59,10 +91,19 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=200, help="compliance samples")
     ap.add_argument("--seed", type=int, default=0, help="random seed")
     ap.add_argument("--newton", type=int, default=20, help="Newton iterations at most")
+    ap.add_argument("--continue", dest="cont", nargs=3, metavar=("KEY", "TO", "NUM"),
+                    help="instead: continue the problem's fixed point in compliance KEY up "
+                         "to TO in NUM steps")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     pb = load_problem(args.problem)
     sim = Simulator(pb)
+    if args.cont:
+        key, stop, num = args.cont[0], float(args.cont[1]), int(args.cont[2])
+        rows = continuation(pb, sim, key, stop, num)
+        args.out.write_text(json.dumps({"problem": args.problem, "continuation": rows,
+                                        "wall_time_s": time.perf_counter() - t0}, indent=2))
+        return 0
     rng = np.random.default_rng(args.seed)
     bounds = pb.compliance_bounds
     ends, found, all_ends = collections.Counter(), [], collections.Counter()

@@ -200,8 +200,9 @@ class FootLeg(ABC):
         return []
 
     def elements(self) -> list:
-        """The foot's own joint elements (:class:`~pdw_casadi.model.mechanics.torques.
-        JointTorque`, e.g. a spring-damper between its segments); none by default."""
+        """The foot's own joint elements
+        (:class:`~pdw_casadi.model.mechanics.torques.JointTorque`, e.g. a spring-damper
+        between its segments); none by default."""
         return []
 
     def swing_hold(self) -> Hold | None:
