@@ -227,7 +227,8 @@ def test_2_scale_writes_its_file_whole_or_not_at_all(tmp_path, capsys, monkeypat
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(cli_scale, "problem_toml", cut)
-    code, _, err = run(capsys, scale_main, ["--mass", "60", "--height", "1.7", "--body",
+    # test_scaling's body: one scaled walker compiled for both (a new body is a new build)
+    code, _, err = run(capsys, scale_main, ["--mass", "62.5", "--height", "1.70", "--body",
                                             "uniform", "--out", str(target)])
     assert code == 1 and "could not write" in err, err
     assert target.read_text() == "# earlier\n"

@@ -55,7 +55,7 @@ def test_per_leg_build_is_the_baked_walker(symmetric):
     pb, step = symmetric
     smap = StrideMap(pb)
     p1, _ = smap.step_parameters(smap.default_parameters())
-    a = PoincareMap.evaluate(smap, step.state, p1)
+    a = smap.evaluate_step(step.state, p1)
     b = PoincareMap(pb).evaluate(step.state)
     # the same equations; only the order of the floating-point operations differs (symbols
     # instead of folded constants), so the two agree to rounding carried through ~1400 RK4
@@ -303,6 +303,7 @@ def test_stride_timing_per_leg(symmetric):
     assert abs(timing["left"].step_length_m - timing["right"].step_length_m) > 1e-6
 
 
+@pytest.mark.slow  # two further walkers (the ankle walker and its per-leg build) to compile
 def test_per_leg_ankle_walker_follows_each_leg():
     """The ankle walker's per-leg build (its extension's elements per leg too): with equal
     legs one step is the baked walker's; the loading damper acts on the leading leg (leg 2)
@@ -314,7 +315,7 @@ def test_per_leg_ankle_walker_follows_each_leg():
     smap = StrideMap(pb)
     assert smap.per_leg
     p1, _ = smap.step_parameters(smap.default_parameters())
-    a = PoincareMap.evaluate(smap, x, p1)
+    a = smap.evaluate_step(x, p1)
     b = PoincareMap(pb).evaluate(x)
     # rounding carried through the steps and events, as for the paper's walker above
     assert np.abs(a.x_next - b.x_next).max() < 1e-10

@@ -15,6 +15,7 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
+from pdw_casadi.fit.atlas import RADII
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import load_problem
 
@@ -28,7 +29,7 @@ def atlas_main(argv=None) -> int:
     ap = Parser(prog="pdw-atlas", description="Rebuild a walker's gait atlas.")
     ap.add_argument("--problem", default="humanlike_6link")
     ap.add_argument("--radius", type=open_interval("--radius", 0.0, 1.0), nargs="+",
-                    default=[0.91, 0.86],
+                    default=list(RADII),
                     help="spectral-radius limits of the seeds (default: %(default)s)")
     ap.add_argument("--variants", choices=("own", "all"), default="own",
                     help="targets: the walker's own curves only, or also a set of "

@@ -9,7 +9,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from pdw_casadi.cli.common import common_parser, load_cli_problem
+from pdw_casadi.cli.common import common_parser, fit_arguments, fit_options, load_cli_problem
 from pdw_casadi.cli.contract import (
     NoGait,
     Outputs,
@@ -137,28 +137,7 @@ def cohort_main(argv: Sequence[str] | None = None) -> int:
                         default=DEFAULTS.body_max_radius, metavar="R",
                         help="largest spectral radius of a subject's body gait, the start "
                              "of their fits (default: %(default)s)")
-    g = parser.add_argument_group("fit (as pdw-fit)")
-    g.add_argument("--free-slope", action="store_true", help="let the slope be an unknown")
-    g.add_argument("--hip-target", choices=("hip", "thigh"), default=FIT_DEFAULTS.hip_target)
-    g.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
-                   default=FIT_DEFAULTS.max_radius, metavar="R",
-                   help="largest accepted spectral radius per step (default: %(default)s)")
-    g.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000),
-                   default=FIT_DEFAULTS.max_iter,
-                   help="IPOPT iterations per solve (default: %(default)s)")
-    g.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=FIT_DEFAULTS.rounds,
-                   help="NLP solves per start (default: %(default)s)")
-    g.add_argument("--multistart", type=int_range("--multistart", 1, 1000),
-                   default=FIT_DEFAULTS.multistart, metavar="N",
-                   help="starts per symmetric fit (default: %(default)s)")
-    g.add_argument("--atlas", metavar="FILE",
-                   help="gait atlas of the starts (default: the problem's bundled one; "
-                        "'none': no atlas)")
-    g.add_argument("--side", choices=("both", "left", "right"), default=FIT_DEFAULTS.side,
-                   help="per-side fits: whose compliance is free (default: %(default)s)")
-    g.add_argument("--stride-start", choices=("fit", "atlas"), default=FIT_DEFAULTS.start,
-                   help="per-side fits: start from the symmetric fit to the mean of both "
-                        "sides, or the atlas gait nearest it (default: %(default)s)")
+    fit_arguments(parser, FIT_DEFAULTS, title="fit (as pdw-fit)")
     parser.add_argument("--workers", type=int_range("--workers", 1, 256), metavar="K",
                         help="processes of the local pool (default: one per CPU, "
                              f"{os.cpu_count() or 1} here)")
@@ -176,13 +155,9 @@ def cohort_main(argv: Sequence[str] | None = None) -> int:
         if args.bodies is not None:
             bodies = read_bodies(check_input_file(Path(args.bodies), "--bodies"))
         entries, left_out = read_study(args.study, args.kind, bodies)
-        atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
-        if atlas:
-            check_input_file(Path(atlas), "--atlas")
-        fit = StrideFitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
-                               max_radius=args.max_radius, multistart=args.multistart,
-                               atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
-                               verbose=False, side=args.side, start=args.stride_start)
+        fit = fit_options(args, verbose=False)
+        if fit.atlas:
+            check_input_file(Path(fit.atlas), "--atlas")
         options = CohortOptions(problem=args.problem, kind=args.kind, body=args.body,
                                 fit=fit, body_max_radius=args.body_max_radius)
         reference = load_cli_problem(args)

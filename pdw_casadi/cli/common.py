@@ -4,6 +4,7 @@ parsers of numbers and tolerances, and the checks made before any output exists.
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from pdw_casadi.cli.contract import (
     UsageError,
     finite_float,
     int_range,
+    open_interval,
     output_path,
 )
 from pdw_casadi.engine.errors import ProblemError
@@ -60,6 +62,107 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     return parent
 
 
+
+
+def max_iter_argument(parser, default: int) -> None:
+    """--max-iter N: IPOPT iterations per NLP solve (``default``: the options dataclass's)."""
+    parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=default,
+                        help="IPOPT iterations per solve (default: %(default)s)")
+
+
+def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool = False,
+                  title: str | None = None):
+    """The fit's flags (pdw-fit, pdw-cohort), their defaults read from ``defaults`` (a
+    :class:`~pdw_casadi.fit.FitOptions` or :class:`~pdw_casadi.fit.StrideFitOptions`;
+    default: ``StrideFitOptions()``): starts, targets, stability, IPOPT, the per-leg fit's
+    ``--side`` and ``--stride-start`` in their own group; ``timing``: also ``--timing
+    [W]``; ``title``: the group of the fit's flags (None: the parser's own options).
+    :func:`fit_options` turns the parsed flags into the options. Returns the per-leg
+    group (for a command's further per-leg flags)."""
+    from pdw_casadi.fit.stride_fit import StrideFitOptions
+
+    d = defaults or StrideFitOptions()
+    lo, hi = d.slope_bounds
+    top = parser
+    parser = parser if title is None else parser.add_argument_group(title)
+    parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000),
+                        default=d.multistart, metavar="N",
+                        help="starts: the problem's own gait, then the N - 1 gait-atlas "
+                             "entries whose curves fit best (default: %(default)s)")
+    parser.add_argument("--atlas", metavar="FILE",
+                        help="gait atlas of the further starts (default: the bundled one "
+                             "of the problem; 'none': no atlas)")
+    parser.add_argument("--free-slope", action="store_true",
+                        help=f"let the slope be an unknown too ({lo:g}..{hi:g} rad)")
+    parser.add_argument("--hip-target", choices=("hip", "thigh"), default=d.hip_target,
+                        help="hip curve in the objective: the paper's hip (thigh + slope) "
+                             "or the thigh from the vertical (default: %(default)s)")
+    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
+                        default=d.max_radius, metavar="R",
+                        help="largest accepted spectral radius per step, in (0, 1) "
+                             "(default: %(default)s)")
+    if timing:
+        parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0),
+                            nargs="?", const=1.0, default=d.timing_weight, metavar="W",
+                            help="also fit the timing: add W ((stance %% - human toe-off %%) "
+                                 "/ 10 %%)^2 to the objective (human toe off: the gait "
+                                 "file's toe_off_pct column, else 60 %%, Perry & Burnfield);"
+                                 " R^2 is unchanged (default W when given: 1)")
+    floor = "none" if d.knee_floor is None else d.knee_floor
+    parser.add_argument("--knee-floor", type=_knee_floor, default=floor, metavar="F",
+                        help="keep knee R^2 at or above F: 'reference' (the problem file's "
+                             "own compliance on the same curves), a number, or 'none' "
+                             "(default: %(default)s)")
+    max_iter_argument(parser, d.max_iter)
+    parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=d.rounds,
+                        help="NLP solves per start: a further one is built at the answer only "
+                             "when the objective's sample brackets moved (default: %(default)s)")
+    g = top.add_argument_group(
+        "per-leg fit", "a curve file with per-side columns (knee_left_mean_deg, ...) "
+        "fits each leg to its side on the stride")
+    g.add_argument("--side", choices=("both", "left", "right"), default=None,
+                   help=f"per-leg fit: whose compliance is free (default: "
+                        f"{getattr(d, 'side', 'both')})")
+    g.add_argument("--stride-start", choices=("fit", "atlas"),
+                   default=getattr(d, "start", "fit"),
+                   help="per-leg fit: start from the symmetric fit to the mean of both "
+                        "sides, or from the atlas gait that fits that mean best (no extra "
+                        "solve) (default: %(default)s)")
+    return g
+
+
+def _knee_floor(text: str) -> str | float:
+    """--knee-floor: 'reference', 'none' or a finite number below 1."""
+    if text in ("reference", "none"):
+        return text
+    try:
+        v = float(text)
+    except ValueError:
+        v = math.nan
+    if not (math.isfinite(v) and v < 1.0):
+        raise argparse.ArgumentTypeError(f"--knee-floor must be 'reference', 'none' or a "
+                                         f"number below 1, got {text!r}")
+    return v
+
+
+def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
+    """The fit's settings of flags parsed by :func:`fit_arguments` (``--atlas none``: no
+    atlas): a :class:`~pdw_casadi.fit.StrideFitOptions` (``per_leg``: with ``--side`` and
+    ``--stride-start``) or a :class:`~pdw_casadi.fit.FitOptions`, with ``extra`` settings
+    of the caller's (e.g. ``verbose``)."""
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.fit.stride_fit import StrideFitOptions
+
+    atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
+    values = dict(hip_target=args.hip_target, free_slope=args.free_slope,
+                  max_radius=args.max_radius, multistart=args.multistart, atlas=atlas,
+                  max_iter=args.max_iter, rounds=args.rounds,
+                  knee_floor=None if args.knee_floor == "none" else args.knee_floor,
+                  timing_weight=getattr(args, "timing", FitOptions.timing_weight), **extra)
+    if not per_leg:
+        return FitOptions(**values)
+    return StrideFitOptions(**values, side=args.side or StrideFitOptions.side,
+                            start=args.stride_start)
 
 
 def positive_int(text: str) -> int:
@@ -113,6 +216,38 @@ def load_cli_problem(args: argparse.Namespace) -> Problem:
         except ProblemError as exc:
             raise ProblemError(f"{state_file}: {exc}") from None
     return problem
+
+
+def load_gait_problem(args: argparse.Namespace, outputs: Outputs) -> Problem:
+    """The problem of a command that writes a walker's gait (pdw-simulate,
+    pdw-fixed-point): :func:`load_cli_problem`, then, before any output exists, its
+    ``--export`` formats and the output directory checked (not created)."""
+    problem = load_cli_problem(args)
+    check_exports(args, problem)
+    outputs.check()
+    return problem
+
+
+def command_map(problem: Problem, stride: bool = False):
+    """The periodic map a command works on: the stride (two steps, the parameters following
+    the physical legs) with ``stride`` or when the legs differ, else the step map
+    (:class:`~pdw_casadi.gait.poincare.PoincareMap`)."""
+    from pdw_casadi.gait.poincare import PoincareMap
+    from pdw_casadi.gait.stride import period_steps
+
+    return PoincareMap(problem, steps=2 if stride else period_steps(problem))
+
+
+def write_summary(outputs: Outputs, out: Path, summary: dict, hs) -> Path:
+    """Write ``summary.json`` into ``out`` with the units of its keys (of the walker ``hs``,
+    :func:`~pdw_casadi.model.units.summary_units`); registered with ``outputs``."""
+    from pdw_casadi.engine.jsonio import write_json
+    from pdw_casadi.model.units import summary_units
+
+    summary["units"] = summary_units(summary, hs)
+    path = outputs.wrote(out / "summary.json")
+    write_json(path, summary)
+    return path
 
 
 def gait_file(source: str, flag: str = "--gait"):

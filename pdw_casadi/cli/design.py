@@ -2,15 +2,15 @@
 
 Starts from a stable gait of the bundled atlas (``--entry``, default the walker's own gait
 at spectral radius 0.83) and runs the stride-NLP design
-:func:`pdw_casadi.studies.prosthesis.design_prosthesis_nlp` (equal step lengths and times, stride
-spectral radius <= 0.81, least relative change of the prosthetic leg's compliance; mass
-homotopy, every step re-simulated); ``--method continuation`` runs the min-norm Newton
-continuation :func:`pdw_casadi.studies.prosthesis.design_prosthesis` instead (symmetry without a
-stability condition). Prints how far the design got, the step lengths and times per leg
-with their asymmetry, the stride's spectral radius, validity, the compliance found and the
-wall time. ``--out FILE.toml``
-writes the designed walker as a problem file (``pdw-fixed-point --problem FILE.toml``
-re-solves it on the stride map).
+:func:`pdw_casadi.studies.prosthesis.design_prosthesis_nlp` (equal step lengths and times,
+stride spectral radius <= ``DesignNLPOptions.max_stride_radius``, least relative change of
+the prosthetic leg's compliance; mass homotopy, every step re-simulated); ``--method
+continuation`` runs the min-norm Newton continuation
+:func:`pdw_casadi.studies.prosthesis.design_prosthesis` instead (symmetry without a stability
+condition). Prints how far the design got, the step lengths and times per leg with their
+asymmetry, the stride's spectral radius, validity, the compliance found and the wall time.
+``--out FILE.toml`` writes the designed walker as a problem file (``pdw-fixed-point
+--problem FILE.toml`` re-solves it on the stride map).
 
     pdw-design --lighter 0.3
 """
@@ -46,6 +46,9 @@ from pdw_casadi.studies.prosthesis import (
     lighter_mass,
 )
 from pdw_casadi.studies.scaling import problem_toml
+
+#: the design's settings (pdw-design passes only what its flags change)
+DEFAULTS = DesignNLPOptions()
 
 
 def design_main(argv=None) -> int:
@@ -97,6 +100,7 @@ def design_main(argv=None) -> int:
     ap.add_argument("--symmetry-tol", type=finite_float("--symmetry-tol"),
                     default=DesignNLPOptions.symmetry_tol_pct,
                     help="NLP: largest accepted |step-length| and |step-time| asymmetry, %% "
+                         f"below the verdict's {DEFAULTS.symmetry_verdict_pct:g} %% "
                          "(default: %(default)s: equal steps)")
     ap.add_argument("--t-min", type=positive_float("--t-min", 1.0),
                     default=DesignNLPOptions.t_min_s,
@@ -117,7 +121,8 @@ def design_main(argv=None) -> int:
                          "adapt too (default: none; the sound leg keeps its compliance)")
     ap.add_argument("--accept-verified", action="store_true",
                     help="NLP: accept a solve that stopped at the iteration limit when its "
-                         "answer re-simulates as stable, valid and symmetric (below 1 %%)")
+                         "answer re-simulates as stable, valid and symmetric (below "
+                         f"{DEFAULTS.symmetry_verdict_pct:g} %%)")
     args = ap.parse_args(argv)
     outputs = Outputs(args.out or Path("."))  # only --out FILE.toml, staged beside it
 
@@ -169,9 +174,12 @@ def design_main(argv=None) -> int:
             if not 0.0 < lo < hi:
                 ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
             bounds[key] = (lo, hi)
-        # the verdict asks for asymmetries below 1 %: the NLP's tolerance must lie inside it
-        if not 0.0 <= args.symmetry_tol < 1.0:
-            ap.error(f"--symmetry-tol must lie in [0, 1) %, got {args.symmetry_tol}")
+        # the verdict asks for asymmetries below symmetry_verdict_pct: the NLP's tolerance
+        # must lie inside it
+        try:
+            DesignNLPOptions(symmetry_tol_pct=args.symmetry_tol).check_symmetry_tol()
+        except ProblemError as exc:
+            ap.error(f"--symmetry-tol: {exc}")
         nlp_only = [flag for flag, given in (
             ("--start", args.start), ("--diagnose", args.diagnose),
             ("--mass-distribution", dist), ("--free-slope", args.free_slope),
@@ -218,7 +226,8 @@ def design_main(argv=None) -> int:
         print(f"stance % L/R {legs['left']['stance_pct']:.2f} / {legs['right']['stance_pct']:.2f}, "
               f"double support {rep['double_support_pct']:.2f} %")
         print(f"stride spectral radius {fp.spectral_radius:.4f} (per step {res.step_radius:.4f}); "
-              f"stable (stride <= 0.81, per step <= 0.9): {fp.spectral_radius <= 0.81}; "
+              f"stable (stride <= {DEFAULTS.max_stride_radius:g}, per step <= "
+              f"{DEFAULTS.max_step_radius:g}): {fp.spectral_radius <= DEFAULTS.max_stride_radius}; "
               f"valid: {fp.valid}")
         print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
                                                      for k, v in res.compliance.items()))

@@ -13,6 +13,8 @@ from pdw_casadi.cli.common import (
     check_exports,
     common_parser,
     export_argument,
+    fit_arguments,
+    fit_options,
     load_cli_problem,
     parallel_arguments,
     parse_command,
@@ -26,9 +28,7 @@ from pdw_casadi.cli.contract import (
     UsageError,
     check_input_file,
     connect_scheduler,
-    int_range,
     one_line,
-    open_interval,
     run,
 )
 from pdw_casadi.engine.errors import ProblemError
@@ -91,49 +91,14 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
         description="Fit compliance and a stable periodic gait to human knee/hip curves.")
     parser.add_argument("--gait", required=True, metavar="FILE",
                         help="gait-curve CSV (a path or a bundled name such as female_fast.csv)")
-    parser.add_argument("--multistart", type=int_range("--multistart", 1, 1000), default=1,
-                        metavar="N",
-                        help="starts: the problem's own gait, then the N - 1 gait-atlas "
-                             "entries whose curves fit best (default: %(default)s)")
-    parser.add_argument("--atlas", metavar="FILE",
-                        help="gait atlas of the further starts (default: the bundled one "
-                             "of the problem; 'none': no atlas)")
-    parser.add_argument("--free-slope", action="store_true",
-                        help="let the slope be an unknown too (0.05..0.25 rad)")
-    parser.add_argument("--hip-target", choices=("hip", "thigh"), default="hip",
-                        help="hip curve in the objective: the paper's hip (thigh + slope) "
-                             "or the thigh from the vertical (default: %(default)s)")
-    parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
-                        default=0.91, metavar="R",
-                        help="largest accepted spectral radius, in (0, 1) "
-                             "(default: %(default)s)")
-    parser.add_argument("--timing", type=open_interval("--timing", 0.0, 1000.0), nargs="?",
-                        const=1.0, default=0.0, metavar="W",
-                        help="also fit the timing: add W ((stance %% - human toe-off %%) / "
-                             "10 %%)^2 to the objective (human toe off: the gait file's "
-                             "toe_off_pct column, else 60 %%, Perry & Burnfield); R^2 is "
-                             "unchanged (default W when given: 1)")
-    parser.add_argument("--max-iter", type=int_range("--max-iter", 1, 100000), default=300,
-                        help="IPOPT iterations per solve (default: %(default)s)")
-    parser.add_argument("--rounds", type=int_range("--rounds", 1, 100), default=2,
-                        help="NLP solves per start: a further one is built at the answer only "
-                             "when the objective's sample brackets moved (default: %(default)s)")
+    per_leg = fit_arguments(parser, timing=True)
+    per_leg.add_argument("--gait-right", metavar="FILE",
+                         help="the right side's curve file; --gait is then the left side's")
     parallel_arguments(parser, "the multistart")
     export_argument(parser, "two steps of the fitted gait")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress lines (the IPOPT log is still written to "
                              "DIR/ipopt.log)")
-    g = parser.add_argument_group(
-        "per-leg fit", "a curve file with per-side columns (knee_left_mean_deg, ...; or "
-        "--gait-right) fits each leg to its side on the stride")
-    g.add_argument("--gait-right", metavar="FILE",
-                   help="the right side's curve file; --gait is then the left side's")
-    g.add_argument("--side", choices=("both", "left", "right"), default=None,
-                   help="per-leg fit: whose compliance is free (default: both)")
-    g.add_argument("--stride-start", choices=("fit", "atlas"), default="fit",
-                   help="per-leg fit: start from the symmetric fit to the mean of both "
-                        "sides, or from the atlas gait that fits that mean best (no extra "
-                        "solve) (default: %(default)s)")
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
@@ -160,19 +125,13 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
                              f"to fit; add --free-slope to fit the slope")
         outputs.check()
-        from pdw_casadi.fit import FitOptions
         from pdw_casadi.report.fit_report import fit_and_report
 
-        atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
-        if atlas:
-            check_atlas_file(problem, Path(atlas))
+        opts = fit_options(args, per_leg=False, verbose=not args.quiet)
+        if opts.atlas:
+            check_atlas_file(problem, Path(opts.atlas))
         if args.scheduler is not None:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
-        opts = FitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
-                          max_radius=args.max_radius, multistart=args.multistart,
-                          atlas=atlas, max_iter=args.max_iter, rounds=args.rounds,
-                          timing_weight=args.timing,
-                          verbose=not args.quiet)
         from pdw_casadi.fit import check_targets
 
         check_targets(problem, human, opts)
@@ -196,8 +155,8 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
 def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     """pdw-fit with per-side curves: each leg fitted to its side on the stride
     (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
-    from pdw_casadi.fit.stride_fit import StrideFitOptions, check_stride_targets
-    from pdw_casadi.gait.stride import StrideMap
+    from pdw_casadi.fit.stride_fit import check_stride_targets
+    from pdw_casadi.gait.stride import stride_map
     from pdw_casadi.report.fit_stride_report import fit_stride_and_report
 
     if args.timing:
@@ -212,17 +171,13 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
         raise UsageError(f"{problem.name} ({problem.family}) has no compliance values to fit "
                          f"per leg")
     try:
-        StrideMap(problem)
+        stride_map(problem)
     except ProblemError as exc:
         raise UsageError(str(exc)) from None
     outputs.check()
-    atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
-    if atlas:
-        check_atlas_file(problem, Path(atlas), same_parameters=not problem.asymmetric)
-    opts = StrideFitOptions(hip_target=args.hip_target, free_slope=args.free_slope,
-                            max_radius=args.max_radius, atlas=atlas, max_iter=args.max_iter,
-                            rounds=args.rounds, verbose=not args.quiet,
-                            side=args.side or "both", start=args.stride_start)
+    opts = fit_options(args, verbose=not args.quiet)
+    if opts.atlas:
+        check_atlas_file(problem, Path(opts.atlas), same_parameters=not problem.asymmetric)
     check_stride_targets(problem, sides, opts)
     out = _fit_output(outputs, opts)
     summary = fit_stride_and_report(problem, sides, opts, out,

@@ -11,20 +11,21 @@ import numpy as np
 
 from pdw_casadi.cli.common import (
     TOL_RANGE,
-    check_exports,
+    command_map,
     common_parser,
     export_argument,
-    load_cli_problem,
+    load_gait_problem,
     parse_command,
     tolerance,
     write_exports,
+    write_summary,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
     Parser,
     run,
 )
-from pdw_casadi.engine.jsonio import write_json
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
 
 
@@ -42,7 +43,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     parser = Parser(
         prog="pdw-fixed-point", parents=[common_parser()],
         description="Newton on the Poincare map with its exact AD Jacobian.")
-    parser.add_argument("--tol", type=tolerance(), default=1e-10,
+    parser.add_argument("--tol", type=tolerance(), default=FIXED_POINT_TOL,
                         help=f"|P(x) - x| to reach, in [{TOL_RANGE[0]:g}, {TOL_RANGE[1]:g}] "
                              "(default: %(default)s)")
     parser.add_argument("--stride", action="store_true",
@@ -52,28 +53,19 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
-        problem = load_cli_problem(args)
-        check_exports(args, problem)
-        outputs.check()
+        problem = load_gait_problem(args, outputs)
         from pdw_casadi.gait.fixed_point import find_fixed_point
         from pdw_casadi.gait.simulate import Simulator
         from pdw_casadi.model.faces import walker_faces
-        from pdw_casadi.model.system import hybrid_system
-        from pdw_casadi.model.units import summary_units
         from pdw_casadi.report.plots import plot_limit_cycle
 
-        stride = args.stride or problem.asymmetric
+        pmap = command_map(problem, args.stride)  # a stride: parameters follow the legs
+        stride = pmap.steps > 1
         faces = None if stride else walker_faces(problem)
         out = outputs.create()
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
-        if stride:  # the two-step map: parameters follow the physical legs
-            from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point
-
-            smap = StrideMap(problem)
-            res = find_stride_fixed_point(problem, tol=args.tol, smap=smap)
-        else:
-            res = find_fixed_point(problem, tol=args.tol, verbose=True)
+        res = find_fixed_point(problem, tol=args.tol, pmap=pmap, verbose=not stride)
         summary = res.to_dict()
         wall = summary.pop("wall_time_s", None)  # timings are not part of the result
         summary["distance_from_initial"] = float(
@@ -86,9 +78,8 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         if stride:
             summary["map"] = "stride (left-stance step, then right-stance step)"
             if res.converged:
-                summary.update(_stride_outputs(smap, res, out, outputs))
-        summary["units"] = summary_units(summary, smap.hs if stride else hybrid_system(problem))
-        write_json(outputs.wrote(out / "summary.json"), summary)
+                summary.update(_stride_outputs(pmap, res, out, outputs))
+        write_summary(outputs, out, summary, pmap.hs)
         if res.converged and not stride:
             sim = Simulator(problem)
             two = sim.run(res.state, res.parameters, steps=2, record=True)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import sys
 import time
 
@@ -17,6 +16,7 @@ from pdw_casadi.cli.contract import (
 )
 from pdw_casadi.model.problem import ProblemError, load_problem
 from pdw_casadi.studies.scaling import (
+    BODY_MAX_RADIUS,
     SEXES,
     check_scalable,
     problem_toml,
@@ -27,9 +27,6 @@ from pdw_casadi.studies.scaling import (
     stable_subject_walker,
     subject_row,
 )
-
-#: the default largest spectral radius of the de Leva body's gait
-STABLE_RADIUS = inspect.signature(stable_subject_walker).parameters["max_radius"].default
 
 
 def scale_main(argv=None) -> int:
@@ -55,7 +52,7 @@ def scale_main(argv=None) -> int:
                              "data/anthropometry/subjects.csv), e.g. WBDS09")
     parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
     parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
-                        default=STABLE_RADIUS, metavar="R",
+                        default=BODY_MAX_RADIUS, metavar="R",
                         help="de Leva body: the largest spectral radius of the gait written "
                              "(default: %(default)s)")
     parser.add_argument("--problem", default="humanlike_6link",

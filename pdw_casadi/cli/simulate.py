@@ -11,12 +11,13 @@ import numpy as np
 from pdw_casadi.cli.common import (
     MAX_SAMPLES,
     MAX_STEPS,
-    check_exports,
+    command_map,
     common_parser,
     export_argument,
-    load_cli_problem,
+    load_gait_problem,
     parse_command,
     write_exports,
+    write_summary,
 )
 from pdw_casadi.cli.contract import (
     NoGait,
@@ -26,7 +27,6 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.gait.timing import simulation_timing, timing_or_none
 from pdw_casadi.model.problem import Problem
 
@@ -120,24 +120,18 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
-        problem = load_cli_problem(args)
-        check_exports(args, problem)
-        outputs.check()
+        problem = load_gait_problem(args, outputs)
         if args.animate is not None:
             check_output_file(args.animate, "--animate", (".gif",))
         from tqdm import tqdm
 
-        from pdw_casadi.gait.simulate import Simulator
+        from pdw_casadi.gait.stride import stride_simulator
         from pdw_casadi.model.faces import walker_faces
-        from pdw_casadi.model.units import summary_units, with_units
+        from pdw_casadi.model.units import with_units
         from pdw_casadi.report.plots import plot_angles, plot_stick
 
-        if problem.asymmetric:  # legs differ: parameters alternate with the stance leg
-            from pdw_casadi.gait.stride import stride_simulator
-
-            sim, p_steps = stride_simulator(problem)
-        else:
-            sim, p_steps = Simulator(problem), None
+        pmap = command_map(problem)  # legs that differ: parameters alternate with the stance leg
+        sim, p_steps = stride_simulator(pmap) if pmap.steps > 1 else (pmap.sim, None)
         faces = walker_faces(problem, sim.hs)
         p = p_steps[0] if p_steps else problem.parameter_vector()
         out = outputs.create()
@@ -155,8 +149,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         with_units(result.events, sim.hs).to_csv(outputs.wrote(out / "events.csv"),
                                                  index=False)
         summary = simulation_summary(problem, result, args.steps)
-        summary["units"] = summary_units(summary, sim.hs)
-        write_json(outputs.wrote(out / "summary.json"), summary)
+        write_summary(outputs, out, summary, sim.hs)
         plot_angles(traj, outputs.wrote(out / "angles.png"),
                     title=f"{problem.name}: joint angles", faces=faces)
         plot_stick(sim.hs, traj, p, outputs.wrote(out / "stick.png"), n=args.snapshots)

@@ -30,6 +30,7 @@ from pdw_casadi.cli.contract import (
 from pdw_casadi.cli.fit import load_fit_start
 from pdw_casadi.engine.errors import NoStartGait
 from pdw_casadi.engine.jsonio import write_json
+from pdw_casadi.gait.sweep import SweepSettings
 from pdw_casadi.model.problem import check_bounds
 
 
@@ -66,7 +67,8 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--mode", choices=("continuation", "grid"), default="continuation",
                         help="continuation from the start, or every grid value solved on its "
                              "own from the start (default: %(default)s)")
-    parser.add_argument("--predictor", choices=("tangent", "secant"), default="tangent",
+    parser.add_argument("--predictor", choices=("tangent", "secant"),
+                        default=SweepSettings.predictor,
                         help="continuation predictor (default: %(default)s)")
     parser.add_argument("--from-fit", type=Path, metavar="FILE",
                         help="start from a fit summary.json (compliance, slope, fixed_point)")
@@ -76,7 +78,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
                         help="refit the compliance to --gait at every point (a full pdw-fit "
                              "per point, warm-started from the neighbour; slow)")
     parallel_arguments(parser, "independent work")
-    parser.add_argument("--tol", type=tolerance(), default=1e-10,
+    parser.add_argument("--tol", type=tolerance(), default=SweepSettings.tol,
                         help=f"|P(x) - x| of every fixed point, in [{TOL_RANGE[0]:g}, "
                              f"{TOL_RANGE[1]:g}] (default: %(default)s)")
     args, outputs = parse_command(parser, argv)
@@ -112,7 +114,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
         from tqdm import tqdm
 
-        from pdw_casadi.gait.sweep import SweepSettings, sweep
+        from pdw_casadi.gait.sweep import sweep
         from pdw_casadi.model.system import gait_system
         from pdw_casadi.model.units import Units
         from pdw_casadi.report.plots import plot_sweep
@@ -123,7 +125,7 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         if args.refit:
             from pdw_casadi.fit import FitOptions, RefitCorrector
 
-            corrector = RefitCorrector(problem, human, FitOptions(verbose=False))
+            corrector = RefitCorrector(problem, human, FitOptions(verbose=False, knee_floor=None))
         out = outputs.create()
         csv_path, partial = out / "sweep.csv", out / "sweep.partial.csv"
         outputs.keep_on_interrupt(partial.name)  # the rows found stay after a Ctrl-C

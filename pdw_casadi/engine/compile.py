@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import casadi as ca
@@ -168,6 +169,26 @@ def _build(funs: list, flags: tuple[str, ...], cc: str, so: Path) -> bool:
     return True
 
 
+@contextmanager
+def _machine_lock(so: Path):
+    """Hold an exclusive lock on ``so``'s build across processes (parallel test workers,
+    a cohort pool): the second process waits and then finds the library built instead of
+    compiling it again. Without ``fcntl`` (not POSIX) or a lockable file: no lock (each
+    process builds; the atomic replace keeps that safe, only slower)."""
+    try:
+        import fcntl
+        f = open(so.with_suffix(".lock"), "a")
+    except (ImportError, OSError):
+        yield
+        return
+    with f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX)
+        except OSError:
+            pass
+        yield
+
+
 def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
     """Path of the cached shared library holding ``funs`` (built if missing or damaged),
     or None (no compiler, no usable cache, or a failed build: interpreted)."""
@@ -182,18 +203,19 @@ def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
         if base is None:
             return None
         so = base / f"{name}_{key}.so"
-        if so.exists():
-            why = _verified(so, funs)
-            if why is None:
-                return so
-            _warn(str(so), f"damaged compiled library {so} ({why}): rebuilt")
-        try:
-            if not _build(funs, flags, cc, so):
+        with _machine_lock(so):
+            if so.exists():
+                why = _verified(so, funs)
+                if why is None:
+                    return so
+                _warn(str(so), f"damaged compiled library {so} ({why}): rebuilt")
+            try:
+                if not _build(funs, flags, cc, so):
+                    return None
+            except OSError as exc:  # e.g. the disk filled up: run uncompiled
+                _warn("build", f"could not compile into {base} ({exc.strerror or exc}); "
+                               f"running uncompiled")
                 return None
-        except OSError as exc:  # e.g. the disk filled up: run uncompiled
-            _warn("build", f"could not compile into {base} ({exc.strerror or exc}); "
-                           f"running uncompiled")
-            return None
     return so
 
 

@@ -8,12 +8,13 @@
 - :mod:`.starts`: the gait atlas and the choice of starts;
 - :mod:`.atlas`: building a walker's gait atlas (``pdw-atlas``);
 - :mod:`.result`: solves, candidates, checks;
-- :mod:`.core`: :func:`fit_gait`;
-- :mod:`.stride_objective`, :mod:`.stride_fit`: :func:`fit_stride`, each leg to its own
-  side's curves on the stride.
+- :mod:`.rounds`: the NLP rounds of a start, on the step or on the stride;
+- :mod:`.core`: :func:`fit_gait` (per-side curves: the per-leg fit :func:`fit_sides`);
+- :mod:`.stride_objective`, :mod:`.stride_fit`: the per-leg fit's parts, each leg to its
+  own side's curves on the stride.
 """
 
-from pdw_casadi.fit.core import RefitCorrector, check_targets, fit_gait
+from pdw_casadi.fit.core import RefitCorrector, check_targets, fit_gait, fit_sides, fit_stride
 from pdw_casadi.fit.objective import CurveError
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.fit.result import (
@@ -24,10 +25,10 @@ from pdw_casadi.fit.result import (
            mean_score,
            reference_gait,
 )
-from pdw_casadi.fit.stride_fit import StrideFitOptions, StrideFitResult, fit_stride
+from pdw_casadi.fit.stride_fit import StrideFitOptions, StrideFitResult
 from pdw_casadi.nlp.stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
            "RefitCorrector", "Solve", "StabilityRow", "StrideFitOptions", "StrideFitResult",
-           "check_targets", "evaluate_gait", "fit_gait", "fit_stride", "mean_score",
+           "check_targets", "evaluate_gait", "fit_gait", "fit_sides", "fit_stride", "mean_score",
            "reference_gait", "smooth_radius"]

@@ -31,6 +31,9 @@ from pdw_casadi.model.gait_data import GaitCurves
 #: (label, knee amplitude factor about its mean, hip offset in deg)
 VARIANTS = (("own", 1.0, 0.0), ("knee0.85", 0.85, 0.0), ("knee1.15", 1.15, 0.0),
             ("hip-4", 1.0, -4.0), ("hip+4", 1.0, 4.0))
+#: stability levels of the seeds: the fit's accepted spectral radius
+#: (FitOptions.max_radius) and one further inside the stable region
+RADII = (FitOptions.max_radius, 0.86)
 
 
 def _target(c: pd.DataFrame, knee: float, hip: float, name: str) -> GaitCurves:
@@ -42,7 +45,7 @@ def _target(c: pd.DataFrame, knee: float, hip: float, name: str) -> GaitCurves:
     return GaitCurves(frame, Path(f"<{name}>"), name)
 
 
-def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
+def build_atlas(problem, radii=RADII, variants=VARIANTS[:1],
                 curves: tuple[GaitCurves, ...] = (), log=print) -> list[AtlasEntry]:
     """The seeds: per target (the walker's own curves and their ``variants``, then each of
     ``curves``) and stability level in ``radii``, the stable gait closest to the target (see
@@ -55,8 +58,8 @@ def build_atlas(problem, radii=(0.91, 0.86), variants=VARIANTS[:1],
     entries = []
     for target, r in ((t, r) for t in targets for r in radii):
         name = target.name
-        res = fit_gait(problem, target, FitOptions(max_radius=r, atlas="", verbose=False),
-                       log=lambda m: None)
+        opts = FitOptions(max_radius=r, atlas="", verbose=False, knee_floor=None)
+        res = fit_gait(problem, target, opts, log=lambda m: None)
         b = res.best
         if b is None:
             log(f"radius {r}: no stable valid gait ({res.notes})")

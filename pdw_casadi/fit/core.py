@@ -8,8 +8,9 @@ Poincare Jacobian, exact gradient), from the atlas starts (:mod:`pdw_casadi.fit.
 then checks the answer the way a reviewer would:
 
 - **re-simulation**: the NLP's section state and parameters are run through the
-  event-driven simulator for 20 steps; the largest deviation from the NLP's state must stay
-  below 1e-6 (the NLP's map is the simulator's map);
+  event-driven simulator for ``resim_steps`` steps; the largest deviation from the NLP's
+  state must stay below ``resim_tol`` (:class:`~pdw_casadi.fit.FitOptions`; the NLP's map
+  is the simulator's map);
 - **stability**: the simulator's exact-AD eigenvalues at its fixed point are the verdict
   (rho <= max_radius);
 - **validity**: the simulator's margins (contact forces, centre of pressure, clearance,
@@ -26,82 +27,124 @@ import time
 
 import numpy as np
 
+from pdw_casadi.engine.errors import NoGait
 from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit.driver import FitSolver
-from pdw_casadi.fit.objective import TARGETS, CurveError
+from pdw_casadi.fit.objective import check_targets
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.fit.result import Candidate, FitResult, Solve, evaluate_gait, mean_score
-from pdw_casadi.fit.starts import Start, select_starts
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.fit.result import Candidate, FitResult, evaluate_gait, mean_score
+from pdw_casadi.fit.rounds import fit_rounds
+from pdw_casadi.fit.starts import Start, own_gait, select_starts
+from pdw_casadi.fit.stride_fit import (
+    StrideFit,
+    StrideFitOptions,
+    StrideFitResult,
+    check_stride_targets,
+    evaluate_stride,
+)
+from pdw_casadi.gait.curves import fit_scores
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.gait_data import SideCurves
+from pdw_casadi.model.system import physical_parameter_vector
 from pdw_casadi.nlp.shooting import ShootingNLP
 
 
-def check_targets(problem, human, opts: FitOptions) -> None:
-    """Raise :class:`CurveError` before any work when the curves or the walker lack a target."""
-    if opts.hip_target not in ("hip", "thigh"):
-        raise CurveError(f"hip_target must be 'hip' or 'thigh', got {opts.hip_target!r}")
-    for target in opts.targets():
-        column = TARGETS[target][1]
-        if getattr(human, column, None) is None:
-            raise CurveError(f"the gait file has no {column} column (needed for {target})")
+class StepFit:
+    """The one-step fit's part of :func:`~pdw_casadi.fit.rounds.fit_rounds`: the step's
+    shooting NLP, the curve rows of ``human``, the checks of
+    :func:`~pdw_casadi.fit.result.evaluate_gait` (start ``start``, ``label`` and its
+    radius ``rho0`` in the progress lines)."""
+
+    steps = 1
+
+    def __init__(self, problem, human, opts: FitOptions, start: int, label: str, rho0: float,
+                 log=print, floor: float | None = None):
+        self.problem, self.human, self.opts, self.log = problem, human, opts, log
+        self.floor = floor  # the knee R^2 floor (:func:`knee_floor`)
+        self.start, self.label, self.rho0 = start, label, rho0
+        self.sim = Simulator(problem)
+        self.targets = opts.targets()
+        self.free = tuple(opts.free or problem.compliance_names) + (
+            ("slope",) if opts.free_slope else ())
+
+    def nlp(self, x, p):
+        opts = self.opts
+        headroom = max(opts.segment_headroom_s,
+                       opts.timing_headroom_s if opts.timing_weight > 0 else 0.0)
+        return ShootingNLP(self.problem, x, p, free=self.free, sample_stride=opts.sample_stride,
+                           hs=self.sim.hs, headroom_s=headroom)
+
+    def solver(self, nlp) -> FitSolver:
+        return FitSolver(nlp, self.human, self.opts, log=self.log, knee_floor=self.floor)
+
+    def check(self, nlp, out: dict) -> Candidate | None:
+        u = nlp.unpack(out["w"])
+        cand = evaluate_gait(self.problem, u["xs"], u["p"], self.human, self.sim,
+                             self.opts.resim_steps, self.opts.resim_tol)
+        if cand is not None:
+            cand.start = self.start
+        return cand
+
+    def gap(self, cand: Candidate) -> float:
+        return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in self.targets))
+
+    def restart(self, cand: Candidate):
+        return cand.state, cand.parameters
+
+    def describe(self, nlp, rnd: int) -> str:
+        return (f"start {self.start} ({self.label}, rho {self.rho0:.3f}) round {rnd}: "
+                f"{len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} "
+                "constraints")
+
+    def outcome(self, rnd: int, out: dict, rho: float, cand) -> str:
+        return (f"start {self.start} round {rnd}: {out['status']} after {out['iterations']} "
+                f"iterations ({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, "
+                f"spectral radius {rho:.4f}"
+                + (f", r2_knee {cand.scores['r2_knee']:.3f} r2_hip "
+                   f"{cand.scores['r2_hip']:.3f}" if cand else ""))
+
+    def where(self, rnd: int) -> str:
+        return f"start {self.start} round {rnd}"
 
 
-def _consistency_gap(cand: Candidate, targets) -> float:
-    """|NLP objective - sum of 1 - R^2 of the re-simulated gait|."""
-    return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in targets))
+def knee_floor(problem, human, opts: FitOptions) -> float | None:
+    """The knee R^2 floor of :attr:`FitOptions.knee_floor` as a number (None: no floor,
+    or "reference" and the problem's own compliance has no gait or no knee curve)."""
+    if opts.knee_floor is None or "knee" not in opts.targets():
+        return None
+    if opts.knee_floor == "reference":
+        gait = own_gait(problem)  # the curves of reference_gait, computed once per process
+        value = None if gait is None else fit_scores(gait[0], human).get("r2_knee")
+        return None if value is None or not np.isfinite(value) else float(value)
+    if isinstance(opts.knee_floor, str):
+        raise ValueError(f"knee_floor must be 'reference', a number or None, got "
+                         f"{opts.knee_floor!r}")
+    return float(opts.knee_floor)
 
 
-def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print):
+def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print,
+               floor: float | None = None):
     """One start: its fixed point, the NLP solve(s), checks. Returns (the best good round's
     candidate, else the last round's, or None; solves; notes)."""
-    sim = Simulator(problem)
     targets = opts.targets()
-    free = tuple(opts.free or problem.compliance_names) + (("slope",) if opts.free_slope else ())
-    solves: list[Solve] = []
-    notes: list[str] = []
-    fp0 = find_fixed_point(problem, start.state, start.parameters, max_iter=30, fallback=False)
+    fp0 = None
+    if np.array_equal(start.state, problem.state_vector()) and \
+            np.array_equal(start.parameters, problem.parameter_vector()):
+        own = own_fixed_point(problem)  # the report's reference and the start ranking's
+        if own.converged and own.method == "newton":
+            fp0 = own  # what the call below would return
+    if fp0 is None:
+        fp0 = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
+                               fallback=False)
     if not fp0.converged:
-        notes.append(f"start {s} ({start.label}): no fixed point; skipped")
-        log(notes[-1])
-        return None, solves, notes
-    x, p = fp0.state, fp0.parameters
-    rounds: list[Candidate] = []
-    for rnd in range(opts.rounds):
-        try:
-            headroom = max(opts.segment_headroom_s,
-                           opts.timing_headroom_s if opts.timing_weight > 0 else 0.0)
-            nlp = ShootingNLP(problem, x, p, free=free, sample_stride=opts.sample_stride,
-                              hs=sim.hs, headroom_s=headroom)
-        except ValueError as exc:
-            notes.append(f"start {s} round {rnd}: {exc}")
-            log(notes[-1])
-            break
-        log(f"start {s} ({start.label}, rho {fp0.spectral_radius:.3f}) round {rnd}: "
-            f"{len(nlp.specs)} segments, {nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} "
-            "constraints")
-        out = FitSolver(nlp, human, opts, log=log).solve(nlp.w0)
-        u = nlp.unpack(out["w"])
-        cand = evaluate_gait(problem, u["xs"], u["p"], human, sim, opts.resim_steps,
-                             opts.resim_tol) if out["success"] else None
-        rho = cand.fixed_point.spectral_radius if cand else float("nan")
-        hist = out["history"]
-        solves.append(Solve(s, rnd, out["status"], out["iterations"], out["wall_time_s"],
-                            out["objective"], rho,
-                            hist[-1].spectral_bound if hist else float("nan")))
-        log(f"start {s} round {rnd}: {out['status']} after {out['iterations']} iterations "
-            f"({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, spectral radius "
-            f"{rho:.4f}" + (f", r2_knee {cand.scores['r2_knee']:.3f} r2_hip "
-                            f"{cand.scores['r2_hip']:.3f}" if cand else ""))
-        if cand is None:
-            notes.append(f"start {s} round {rnd}: {out['status']}"
-                         + ("; no fixed point of the simulator there" if out["success"] else ""))
-            break
-        cand.start, cand.objective = s, out["objective"]
-        rounds.append(cand)
-        if _consistency_gap(cand, targets) <= opts.consistency_tol * max(cand.objective, 1e-6):
-            break
-        x, p = cand.state, cand.parameters
+        note = f"start {s} ({start.label}): no fixed point; skipped"
+        log(note)
+        return None, [], [note]
+    fit = StepFit(problem, human, opts, s, start.label, fp0.spectral_radius, log=log,
+                  floor=floor)
+    rounds, solves, notes = fit_rounds(fit, fp0.state, fp0.parameters, opts, log=log)
     good = [c for c in rounds if c.good(opts)]
     best = max(good, key=lambda c: mean_score(c, targets)) if good else (
         rounds[-1] if rounds else None)
@@ -109,12 +152,12 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
 
 
 def _fit_start_task(args):
-    problem, human, opts, s, start = args
-    return _fit_start(problem, human, opts, s, start, log=lambda m: None)
+    problem, human, opts, s, start, floor = args
+    return _fit_start(problem, human, opts, s, start, log=lambda m: None, floor=floor)
 
 
 def fit_gait(problem, human, options: FitOptions | None = None, log=print,
-             workers: int = 1, scheduler: str | None = None) -> FitResult:
+             workers: int = 1, scheduler: str | None = None):
     """Fit ``problem``'s compliance (and slope with ``free_slope``) and periodic gait to
     ``human`` curves (:class:`~pdw_casadi.model.gait_data.GaitCurves`).
 
@@ -123,20 +166,29 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     ``workers`` processes or a Dask ``scheduler`` when there are several (identical results
     in any mode). ``best`` is the stable (rho <= max_radius), valid
     candidate with the highest mean R^2 of the targets (None if no start gave one).
+
+    Per-side curves (:class:`~pdw_casadi.model.gait_data.SideCurves`): the per-leg fit, the
+    same rounds (:func:`~pdw_casadi.fit.rounds.fit_rounds`) on the stride, the two-step
+    map (:func:`fit_sides`; ``options`` a :class:`~pdw_casadi.fit.StrideFitOptions`).
     """
+    if isinstance(human, SideCurves):
+        return fit_sides(problem, human, options, log=log)
     opts = options or FitOptions()
     check_targets(problem, human, opts)
     targets = opts.targets()
     t_start = time.perf_counter()
     starts = select_starts(problem, human, opts)
+    floor = knee_floor(problem, human, opts)
+    if floor is not None:
+        log(f"knee R^2 floor {floor:.4f} (the problem's own compliance on these curves)")
     for s, st in enumerate(starts):
         log(f"start {s}: {st.label}" + ("" if np.isnan(st.score) else
                                          f" (mean R^2 {st.score:.3f} before fitting)"))
     if len(starts) > 1 and (workers > 1 or scheduler):
-        tasks = [(problem, human, opts, s, st) for s, st in enumerate(starts)]
+        tasks = [(problem, human, opts, s, st, floor) for s, st in enumerate(starts)]
         results = list(map_tasks(_fit_start_task, tasks, workers=workers, scheduler=scheduler))
     else:
-        results = [_fit_start(problem, human, opts, s, st, log=log)
+        results = [_fit_start(problem, human, opts, s, st, log=log, floor=floor)
                    for s, st in enumerate(starts)]
     candidates = [r[0] for r in results if r[0] is not None]
     solves = [x for r in results for x in r[1]]
@@ -145,6 +197,73 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     best = max(good, key=lambda c: mean_score(c, targets), default=None)
     return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
                      targets, notes)
+
+
+def symmetric_start(problem, sides: SideCurves, opts: StrideFitOptions, log=print):
+    """The per-leg fit's start on a walker with equal legs: (section state, step parameters,
+    label, the start fit's solves, notes). ``opts.start`` "fit": the one-step fit to the
+    mean of both sides (:func:`fit_gait`), "atlas" (or when that fit finds no stable valid
+    gait): the atlas or problem gait that fits the mean best."""
+    mean = sides.mean()
+    notes: list[str] = []
+    if opts.start == "fit":
+        log("symmetric start: the one-step fit to the mean of both sides")
+        res = fit_gait(problem, mean, opts, log=log)
+        cand = res.best
+        if cand is not None:
+            return cand.state, cand.parameters, "symmetric fit to the mean of both sides", \
+                res.solves, res.notes
+        notes = [*res.notes, "the symmetric start fit found no stable valid gait; starting "
+                             "from the atlas"]
+        log(notes[-1])
+    start = select_starts(problem, mean, opts)[0]
+    fp = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
+                          fallback=False)
+    if not fp.converged:
+        raise NoGait(f"the start gait {start.label} has no fixed point")
+    return fp.state, fp.parameters, start.label, [], notes
+
+
+def fit_sides(problem, sides: SideCurves, options: StrideFitOptions | None = None,
+              log=print) -> StrideFitResult:
+    """Fit each leg of ``problem``'s walker to its side of ``sides`` on the stride
+    (:mod:`pdw_casadi.fit.stride_fit`): :func:`fit_rounds` on the two-step map
+    (:class:`~pdw_casadi.fit.stride_fit.StrideFit`). ``problem``: a symmetric walker (the
+    start is :func:`symmetric_start`, repeated twice), or one whose legs differ (the start
+    is its own stride fixed point)."""
+    opts = options or StrideFitOptions()
+    check_stride_targets(problem, sides, opts)
+    t_start = time.perf_counter()
+    targets = opts.targets()
+    smap = PoincareMap(problem, steps=2)
+    if problem.asymmetric:
+        fp0 = find_fixed_point(problem, pmap=smap, fallback=False)
+        if not fp0.converged:
+            raise NoGait(f"{problem.name}: no stride fixed point near its initial state")
+        x, theta, label, solves, notes = fp0.state, fp0.parameters, "the problem's own " \
+            "stride gait", [], []
+    else:
+        x, p, label, solves, notes = symmetric_start(problem, sides, opts, log)
+        theta = physical_parameter_vector(problem.with_parameters(p))
+    solves = list(solves)
+    start = evaluate_stride(smap, (x, x), theta, sides, opts.resim_steps, opts.resim_tol,
+                            opts.stride_max_radius) if not problem.asymmetric else None
+    start_info = {"label": label, "state": np.asarray(x, float).tolist(),
+                  "theta": np.asarray(theta, float).tolist(),
+                  "scores": None if start is None else start.scores,
+                  "curves": None if start is None else start.report["curves"]}
+    fit = StrideFit(problem, sides, opts, label, log=log)
+    rounds, more, more_notes = fit_rounds(fit, x, theta, opts, log=log)
+    solves += more
+    notes = list(notes) + more_notes
+    good = [c for c in rounds if c.good]
+    best = max(good, key=lambda c: c.mean_score(targets)) if good else None
+    return StrideFitResult(problem, best, rounds, start_info, solves, opts,
+                           time.perf_counter() - t_start, targets, fit.free, notes)
+
+
+#: the per-leg fit's name: :func:`fit_gait` with per-side curves (:func:`fit_sides`)
+fit_stride = fit_gait
 
 
 class RefitCorrector:
@@ -159,7 +278,8 @@ class RefitCorrector:
 
     def __init__(self, problem, human, options: FitOptions | None = None):
         self.problem, self.human = problem, human
-        self.options = options or FitOptions(verbose=False, atlas="")
+        # no knee floor: the swept value moves the problem's own gait with it
+        self.options = options or FitOptions(verbose=False, atlas="", knee_floor=None)
 
     def __call__(self, x_guess, p) -> FixedPointResult:
         pb = self.problem.with_parameters(p).with_state(np.asarray(x_guess, float))

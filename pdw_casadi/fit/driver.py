@@ -38,13 +38,14 @@ class FitSolver:
     """
 
     def __init__(self, nlp, human, opts: FitOptions, log=print, extra=None, errors=None,
-                 radius_bound: float | None = None):
+                 radius_bound: float | None = None, knee_floor: float | None = None):
         """``extra(nlp) -> MX``: a further objective term of the caller's (e.g. the heel-off
         margin of scripts/heeloff_seed.py); like the timing term it is left out of the
         reported objective, which stays the curve part. ``errors``: the curve error rows
         (key -> (err, SS_tot)) instead of :func:`curve_errors` of ``human`` (the stride fit's
         per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
-        bound (default ``max_radius - radius_margin``; a stride's is that squared)."""
+        bound (default ``max_radius - radius_margin``; a stride's is that squared).
+        ``knee_floor``: a row knee R^2 >= this value (:attr:`FitOptions.knee_floor`)."""
         self.nlp, self.opts, self.log = nlp, opts, log
         if opts.jacobian not in ("structured", "casadi"):
             raise ValueError(f"jacobian must be 'structured' or 'casadi', got {opts.jacobian!r}")
@@ -70,18 +71,24 @@ class FitSolver:
         self.e = ca.vertcat(*[ca.vec(E) for E in self.E.values()])
         self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(e) for e, _ in
                                                              errs.values()])])
+        floor_rows, floor_ub = [], []
+        if knee_floor is not None and "knee" in self.E:
+            # 1 - R^2_knee <= 1 - floor: the knee never traded for the hip below the floor
+            floor_rows.append(ca.sumsqr(self.E["knee"]) / self.ss["knee"])
+            floor_ub.append(1.0 - knee_floor)
+        self.knee_floor = knee_floor if floor_rows else None
         self.n_w = nlp.w.shape[0]
         self.x = ca.vertcat(nlp.w, self.e)
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
             if opts.stability_constraint and nlp.free else None
         self.cap = [None]  # set per solve (FitOptions.iterate_radius_slack)
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
-            self.x, obj, ca.vertcat(nlp.g, *rows), self.row, self.n_w,
+            self.x, obj, ca.vertcat(nlp.g, *rows, *floor_rows), self.row, self.n_w,
             nlp if opts.jacobian == "structured" else None, self.cap)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
-        self.lbg = np.r_[nlp.lbg, np.zeros(ne)]
-        self.ubg = np.r_[nlp.ubg, np.zeros(ne)]
+        self.lbg = np.r_[nlp.lbg, np.zeros(ne), np.full(len(floor_ub), -np.inf)]
+        self.ubg = np.r_[nlp.ubg, np.zeros(ne), floor_ub]
         if self.row is not None:
             self.lbg = np.r_[self.lbg, -np.inf]
             bound = opts.max_radius - opts.radius_margin if radius_bound is None \

@@ -27,6 +27,17 @@ GAP_FACTOR = 3.0
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
 
 
+def check_targets(problem, human, opts) -> None:
+    """Raise :class:`CurveError` before any work when the curves or the walker lack a target
+    of ``opts`` (:class:`~pdw_casadi.fit.FitOptions`)."""
+    if opts.hip_target not in ("hip", "thigh"):
+        raise CurveError(f"hip_target must be 'hip' or 'thigh', got {opts.hip_target!r}")
+    for target in opts.targets():
+        column = TARGETS[target][1]
+        if getattr(human, column, None) is None:
+            raise CurveError(f"the gait file has no {column} column (needed for {target})")
+
+
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
     """Per target: (err, SS_tot) with ``err`` the model minus human angle (deg) at the 101
     points of the gait cycle (1 x 101 MX), so that sum err^2 / SS_tot is 1 - R^2 of the

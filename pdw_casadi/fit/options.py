@@ -47,6 +47,11 @@ class FitOptions:
     #: 0.01 keeps every iterate's rho_32 at or below max_radius, where fits used to leave
     #: the stable region for hundreds of iterations (docs/results/fit.md)
     iterate_radius_slack: float | None = 0.01
+    #: a constraint knee R^2 >= floor: "reference" (the R^2 of the problem's own compliance
+    #: on the same curves, when it has a gait), a number, or None (no floor); the sum of
+    #: 1 - R^2 alone may trade knee for hip below the problem file's own knee
+    #: (docs/results/fit.md)
+    knee_floor: str | float | None = "reference"
     multistart: int = 1
     #: starts whose curves fit the user's within this much mean R^2 of the best count as
     #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,7 +9,8 @@ import pandas as pd
 
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores, gait_cycle
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.timing import step_timing, timing_or_none
 
@@ -46,7 +46,7 @@ class Candidate:
     curves: pd.DataFrame
     resimulation_deviation: float
     objective: float
-    resim_tol: float = 1e-6
+    resim_tol: float = FitOptions.resim_tol
 
     @property
     def stable(self) -> bool:
@@ -92,13 +92,13 @@ def mean_score(c: Candidate, targets) -> float:
 
 
 def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
-                  resim_steps: int = 20, resim_tol: float = 1e-6) -> Candidate | None:
+                  resim_steps: int = FitOptions.resim_steps,
+                  resim_tol: float = FitOptions.resim_tol) -> Candidate | None:
     """Checks of a gait (x: section state, p: parameters): fixed point, stability, margins,
     ``resim_steps``-step re-simulation deviation of x itself, curves and R^2 against
     ``human``. None when the simulator finds no fixed point there."""
     sim = sim or Simulator(problem)
-    run = sim.run(x, p, steps=resim_steps, record=False)
-    dev = float(np.abs(run.poincare_states - x).max()) if run.failure is None else math.inf
+    dev = PoincareMap(problem, sim.hs).resimulation_deviation([x], p, resim_steps)
     fp = find_fixed_point(problem, x, p, max_iter=15, fallback=False)
     if not fp.converged:
         return None
@@ -111,7 +111,7 @@ def evaluate_gait(problem, x, p, human, sim: Simulator | None = None,
 
 def reference_gait(problem, human) -> dict:
     """Fixed point of a problem's own parameters near its initial state, its curves and R^2."""
-    fp = find_fixed_point(problem)
+    fp = own_fixed_point(problem)
     out = {"problem": problem.name, "converged": fp.converged,
            "spectral_radius": fp.spectral_radius, "stable": fp.stable, "valid": fp.valid,
            "failure": fp.failure, "curves": None}

@@ -23,7 +23,7 @@ import pandas as pd
 from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores
-from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.fixed_point import own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 
 
@@ -91,14 +91,23 @@ def save_atlas(problem, entries: list[AtlasEntry], path: str | Path) -> Path:
     return p
 
 
+_OWN_GAIT: dict[str, tuple[pd.DataFrame, float] | None] = {}
+
+
 def own_gait(problem) -> tuple[pd.DataFrame, float] | None:
     """The 101-point knee/hip/thigh curves (deg) and the spectral radius of the problem's own
-    fixed point, or None when its own parameters have no gait."""
-    fp = find_fixed_point(problem)
-    if not fp.converged:
-        return None
-    curves = cycle_curves(Simulator(problem), fp.state, fp.parameters)
-    return None if curves is None else (curves, fp.spectral_radius)
+    fixed point, or None when its own parameters have no gait (once per process for a
+    problem of the same content: the start ranking and the knee floor both need it)."""
+    key = json.dumps(problem.to_dict(), sort_keys=True, default=str)
+    if key not in _OWN_GAIT:
+        fp = own_fixed_point(problem)
+        curves = cycle_curves(Simulator(problem), fp.state, fp.parameters) \
+            if fp.converged else None
+        if len(_OWN_GAIT) >= 8:
+            _OWN_GAIT.pop(next(iter(_OWN_GAIT)))
+        _OWN_GAIT[key] = None if curves is None else (curves, fp.spectral_radius)
+    gait = _OWN_GAIT[key]
+    return None if gait is None else (gait[0].copy(), gait[1])
 
 
 def rank_starts(starts: list[Start], r2_tolerance: float) -> list[Start]:

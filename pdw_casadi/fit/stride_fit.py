@@ -1,6 +1,9 @@
 """Fit each leg to its own side's human curves on the stride (two steps, legs may differ).
 
-:func:`fit_stride` solves the stride multiple-shooting NLP
+The per-leg fit (:func:`~pdw_casadi.fit.fit_gait` with per-side curves:
+:func:`~pdw_casadi.fit.core.fit_sides`, its rounds those of every fit,
+:func:`~pdw_casadi.fit.rounds.fit_rounds`, with :class:`StrideFit`) solves the stride
+multiple-shooting NLP
 (:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`: step 0 with the left leg in stance,
 step 1 with the right) for a periodic stride and each leg's free compliance (``left.k_ankle``,
 ``right.k_ankle``, ...), minimising the sum over legs and curves of 1 - R^2 of each leg's gait
@@ -9,34 +12,30 @@ stride's Jacobian J_2 J_1 bounded by (``max_radius`` - ``radius_margin``)^2: a s
 steps, so the per-step bound squared. It starts from the symmetric fit to the mean of both
 sides (:func:`~pdw_casadi.fit.fit_gait`; with ``start="atlas"``, from the atlas gait that
 fits that mean best), repeated twice, and checks the answer on the stride map as
-the step fit does: 20-step re-simulation with the legs' parameters alternating (deviation
-< 1e-6), the stride fixed point, its exact-AD spectral radius (<= ``max_radius``^2) and
-validity. R^2 is that of the re-simulated gait, per leg
+the step fit does: ``resim_steps``-step re-simulation with the legs' parameters alternating
+(deviation < ``resim_tol``), the stride fixed point, its exact-AD spectral radius
+(<= ``max_radius``^2) and validity. R^2 is that of the re-simulated gait, per leg
 (:func:`pdw_casadi.gait.stride.stride_report`).
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from pdw_casadi.engine.errors import CurveError, NoGait, PoincareError
-from pdw_casadi.fit.core import check_targets, fit_gait
+from pdw_casadi.engine.errors import CurveError, PoincareError
 from pdw_casadi.fit.driver import FitSolver
+from pdw_casadi.fit.objective import check_targets
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.fit.result import Solve
-from pdw_casadi.fit.starts import select_starts
 from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
 from pdw_casadi.gait.curves import fit_scores
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
-from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.fixed_point import FixedPointResult
+from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.stride import (
-    StrideMap,
     find_stride_fixed_point,
-    physical_parameter_vector,
     stride_report,
 )
 from pdw_casadi.model.gait_data import SIDES
@@ -45,8 +44,8 @@ from pdw_casadi.nlp.shooting import ShootingNLP
 
 @dataclass
 class StrideFitOptions(FitOptions):
-    """Settings of :func:`fit_stride`: those of :class:`~pdw_casadi.fit.FitOptions` (the
-    symmetric start fit uses them as they are) and
+    """Settings of the per-leg fit (:func:`~pdw_casadi.fit.core.fit_sides`): those of
+    :class:`~pdw_casadi.fit.FitOptions` (the symmetric start fit uses them as they are) and
 
     ``side``: whose compliance is free, "both" (each leg its own), "left" or "right" (the
     other leg keeps the start's); ``start``: "fit" (the symmetric step fit to the mean of
@@ -91,8 +90,8 @@ class StrideCandidate:
     scores: dict
     resimulation_deviation: float
     objective: float = math.nan
-    resim_tol: float = 1e-6
-    max_radius: float = 0.91 ** 2
+    resim_tol: float = FitOptions.resim_tol
+    max_radius: float = FitOptions.max_radius ** 2
 
     @property
     def stable(self) -> bool:
@@ -129,23 +128,17 @@ class StrideFitResult:
     notes: list[str] = field(default_factory=list)
 
 
-def evaluate_stride(smap: StrideMap, xs_steps, theta, sides, resim_steps: int = 20,
-                    resim_tol: float = 1e-6, max_radius: float = 0.91 ** 2
-                    ) -> StrideCandidate | None:
+def evaluate_stride(smap: PoincareMap, xs_steps, theta, sides,
+                    resim_steps: int = FitOptions.resim_steps,
+                    resim_tol: float = FitOptions.resim_tol,
+                    max_radius: float = FitOptions.max_radius ** 2) -> StrideCandidate | None:
     """Checks of a stride (``xs_steps``: the section state at the start of each of its two
     steps; ``theta``: physical parameters): the re-simulation deviation over ``resim_steps``
     steps with the legs' parameters alternating, the stride fixed point and its report, R^2
     per leg against ``sides``. None when the simulator finds no stride fixed point there."""
-    x, x2 = (np.asarray(v, float) for v in xs_steps)
+    x = np.asarray(xs_steps[0], float)
     theta = np.asarray(theta, float)
-    sim = Simulator(smap.problem, smap.hs)
-    run = sim.run(x, None, steps=resim_steps, record=False,
-                  p_steps=list(smap.step_parameters(theta)))
-    if run.failure is None:
-        ps = run.poincare_states
-        dev = float(max(np.abs(ps[0::2] - x).max(), np.abs(ps[1::2] - x2).max()))
-    else:
-        dev = math.inf
+    dev = smap.resimulation_deviation(xs_steps, theta, resim_steps)
     fp = find_stride_fixed_point(smap.problem, x0=x, theta=theta, max_iter=15,
                                  fallback=False, smap=smap)
     if not fp.converged:
@@ -170,28 +163,6 @@ def check_stride_targets(problem, sides, opts: StrideFitOptions) -> None:
         check_targets(problem, sides.side(s), opts)
 
 
-def _symmetric_start(problem, sides, opts: StrideFitOptions, log):
-    """(section state, step parameters, label, the start fit's solves, notes)."""
-    mean = sides.mean()
-    notes: list[str] = []
-    if opts.start == "fit":
-        log("symmetric start: the one-step fit to the mean of both sides")
-        res = fit_gait(problem, mean, opts, log=log)
-        cand = res.best
-        if cand is not None:
-            return cand.state, cand.parameters, "symmetric fit to the mean of both sides", \
-                res.solves, res.notes
-        notes = [*res.notes, "the symmetric start fit found no stable valid gait; starting "
-                             "from the atlas"]
-        log(notes[-1])
-    start = select_starts(problem, mean, opts)[0]
-    fp = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
-                          fallback=False)
-    if not fp.converged:
-        raise NoGait(f"the start gait {start.label} has no fixed point")
-    return fp.state, fp.parameters, start.label, [], notes
-
-
 def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
     """The stride NLP's unknown parameters: each free side's compliance (``opts.free``, by
     default all of the problem's) as ``<side>.<name>``, and ``slope`` with ``free_slope``."""
@@ -200,80 +171,59 @@ def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
         ("slope",) if opts.free_slope else ())
 
 
-def fit_stride(problem, sides, options: StrideFitOptions | None = None,
-               log=print) -> StrideFitResult:
-    """Fit each leg of ``problem``'s walker to its side of ``sides``
-    (:class:`~pdw_casadi.model.gait_data.SideCurves`) on the stride NLP (module docstring).
-    ``problem``: a symmetric walker (the start is its symmetric gait repeated twice), or one
-    whose legs differ (the start is its own stride fixed point)."""
-    opts = options or StrideFitOptions()
-    check_stride_targets(problem, sides, opts)
-    t_start = time.perf_counter()
-    targets = opts.targets()
-    keys = side_targets(targets)
-    smap = StrideMap(problem)
-    if problem.asymmetric:
-        fp0 = find_stride_fixed_point(problem, smap=smap, fallback=False)
-        if not fp0.converged:
-            raise NoGait(f"{problem.name}: no stride fixed point near its initial state")
-        x, theta, label, solves, notes = fp0.state, fp0.parameters, "the problem's own " \
-            "stride gait", [], []
-    else:
-        x, p, label, solves, notes = _symmetric_start(problem, sides, opts, log)
-        theta = physical_parameter_vector(problem.with_parameters(p))
-    solves = list(solves)
-    start = evaluate_stride(smap, (x, x), theta, sides, opts.resim_steps, opts.resim_tol,
-                            opts.stride_max_radius) if not problem.asymmetric else None
-    start_info = {"label": label, "state": np.asarray(x, float).tolist(),
-                  "theta": np.asarray(theta, float).tolist(),
-                  "scores": None if start is None else start.scores,
-                  "curves": None if start is None else start.report["curves"]}
-    free = stride_free_names(problem, opts)
-    rounds: list[StrideCandidate] = []
-    for rnd in range(opts.rounds):
-        try:
-            nlp = ShootingNLP.stride(problem, x, theta, free=free,
-                                     sample_stride=opts.sample_stride,
-                                     headroom_s=opts.segment_headroom_s)
-        except ValueError as exc:
-            notes.append(f"round {rnd}: {exc}")
-            log(notes[-1])
-            break
-        log(f"stride round {rnd} from {label}: {len(nlp.specs)} segments, "
-            f"{nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} constraints, {len(free)} free")
-        errs = stride_curve_errors(nlp, sides, targets)
-        solver = FitSolver(nlp, None, opts, log=log, errors=errs,
-                           radius_bound=opts.stride_radius_bound)
-        out = solver.solve(nlp.w0)
+class StrideFit:
+    """The per-leg fit's part of :func:`~pdw_casadi.fit.rounds.fit_rounds` on the stride:
+    the stride's shooting NLP (:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`) with the
+    free names of :func:`stride_free_names`, each leg's curve rows against its side
+    (:func:`~pdw_casadi.fit.stride_objective.stride_curve_errors`), the stability row
+    bounded by the per-step bound squared, the checks of :func:`evaluate_stride`."""
+
+    steps = 2
+    start = -1
+
+    def __init__(self, problem, sides, opts: StrideFitOptions, label: str, log=print):
+        self.problem, self.sides, self.opts, self.label, self.log = (problem, sides, opts,
+                                                                      label, log)
+        self.targets = opts.targets()
+        self.keys = side_targets(self.targets)
+        self.free = stride_free_names(problem, opts)
+
+    def nlp(self, x, theta):
+        return ShootingNLP.stride(self.problem, x, theta, free=self.free,
+                                  sample_stride=self.opts.sample_stride,
+                                  headroom_s=self.opts.segment_headroom_s)
+
+    def solver(self, nlp) -> FitSolver:
+        errs = stride_curve_errors(nlp, self.sides, self.targets)
+        return FitSolver(nlp, None, self.opts, log=self.log, errors=errs,
+                         radius_bound=self.opts.stride_radius_bound)
+
+    def check(self, nlp, out: dict) -> StrideCandidate | None:
         u = nlp.unpack(out["w"])
-        cand = evaluate_stride(nlp.stride_map, u["xs_steps"], u["p"], sides, opts.resim_steps,
-                               opts.resim_tol, opts.stride_max_radius) \
-            if out["success"] else None
-        hist = out["history"]
-        rho = cand.fixed_point.spectral_radius if cand else math.nan
-        solves.append(Solve(-1, rnd, out["status"], out["iterations"], out["wall_time_s"],
-                            out["objective"], rho,
-                            hist[-1].spectral_bound if hist else math.nan))
-        log(f"stride round {rnd}: {out['status']} after {out['iterations']} iterations "
-            f"({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, stride radius "
-            f"{rho:.4f}")
-        if cand is None:
-            notes.append(f"stride round {rnd}: {out['status']}"
-                         + ("; no stride fixed point of the simulator there"
-                            if out["success"] else ""))
-            break
-        cand.objective = out["objective"]
-        rounds.append(cand)
-        gap = abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][
-            f"r2_{k.split('.')[1]}"] for k in keys))
-        if gap <= opts.consistency_tol * max(cand.objective, 1e-6):
-            break
-        x, theta = cand.state, cand.theta
-    good = [c for c in rounds if c.good]
-    best = max(good, key=lambda c: c.mean_score(targets)) if good else None
-    return StrideFitResult(problem, best, rounds, start_info, solves, opts,
-                           time.perf_counter() - t_start, targets, free, notes)
+        opts = self.opts
+        return evaluate_stride(nlp.stride_map, u["xs_steps"], u["p"], self.sides,
+                               opts.resim_steps, opts.resim_tol, opts.stride_max_radius)
+
+    def gap(self, cand: StrideCandidate) -> float:
+        return abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][
+            f"r2_{k.split('.')[1]}"] for k in self.keys))
+
+    def restart(self, cand: StrideCandidate):
+        return cand.state, cand.theta
+
+    def describe(self, nlp, rnd: int) -> str:
+        return (f"stride round {rnd} from {self.label}: {len(nlp.specs)} segments, "
+                f"{nlp.w.shape[0]} unknowns, {nlp.g.shape[0]} constraints, "
+                f"{len(self.free)} free")
+
+    def outcome(self, rnd: int, out: dict, rho: float, cand) -> str:
+        return (f"stride round {rnd}: {out['status']} after {out['iterations']} iterations "
+                f"({out['wall_time_s']:.1f} s), objective {out['objective']:.4f}, stride "
+                f"radius {rho:.4f}")
+
+    def where(self, rnd: int) -> str:
+        return f"stride round {rnd}"
 
 
-__all__ = ["StrideCandidate", "StrideFitOptions", "StrideFitResult", "check_stride_targets",
-           "evaluate_stride", "fit_stride", "stride_free_names"]
+__all__ = ["StrideCandidate", "StrideFit", "StrideFitOptions", "StrideFitResult",
+           "check_stride_targets", "evaluate_stride", "stride_free_names"]

@@ -30,9 +30,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, FixedPointResult, find_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap
-from pdw_casadi.gait.stride import StrideMap, physical_parameter_names, physical_parameter_vector
+from pdw_casadi.gait.stride import (
+    period_steps,
+    physical_parameter_names,
+    physical_parameter_vector,
+)
 from pdw_casadi.model.problem import Problem, ProblemError
 
 #: (x_guess, p) -> fixed point at parameters p (which hold the new lambda)
@@ -41,15 +45,16 @@ Corrector = Callable[[np.ndarray, np.ndarray], FixedPointResult]
 
 class NewtonCorrector:
     """Newton on P(x) - x at fixed compliance (:func:`find_fixed_point`, no IPOPT fallback);
-    P is the stride map (:class:`~pdw_casadi.gait.stride.StrideMap`) when the problem's legs
-    differ, so p is then its physical parameter vector (:func:`sweep_parameters`).
+    P is the periodic map of :func:`~pdw_casadi.gait.stride.period_steps` steps (the stride
+    when the problem's legs differ, so p is then its physical parameter vector,
+    :func:`sweep_parameters`).
 
     ``tol``: |P(x) - x| to reach (rad, rad/s). ``max_iter``: a good prediction converges in
     a few iterations; more means the prediction is off and a shorter step is cheaper.
     Picklable (the Poincare map is rebuilt from the walker cache in another process).
     """
 
-    def __init__(self, problem: Problem, tol: float = 1e-10, max_iter: int = 10):
+    def __init__(self, problem: Problem, tol: float = FIXED_POINT_TOL, max_iter: int = 10):
         self.problem = problem
         self.tol = tol
         self.max_iter = max_iter
@@ -58,8 +63,7 @@ class NewtonCorrector:
     @property
     def pmap(self):
         if self._pmap is None:
-            self._pmap = (StrideMap(self.problem) if self.problem.asymmetric
-                          else PoincareMap(self.problem))
+            self._pmap = PoincareMap(self.problem, steps=period_steps(self.problem))
         return self._pmap
 
     def __call__(self, x_guess, p) -> FixedPointResult:

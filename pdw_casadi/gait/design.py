@@ -24,6 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.poincare import PoincareError
 
 
@@ -44,7 +45,7 @@ class DesignOptions:
     failed solve down to ``min_step``.
     """
 
-    tol: float = 1e-10
+    tol: float = FIXED_POINT_TOL
     max_iter: int = 40
     min_alpha: float = 1e-4
     max_rel_change: float = 0.2
@@ -187,13 +188,13 @@ def symmetry_conditions(smap, length_scale: float, time_scale: float) -> Extra:
         l1, g1x, g1p = smap.step_length(r1.x_next, p2)
         l2, g2x, g2p = smap.step_length(r2.x_next, p1)
         dl1_dx = g1x @ r1.dx
-        dl1_dt = g1x @ r1.dp + g1p @ smap.Pi2
+        dl1_dt = g1x @ r1.dp + g1p @ smap.Pi[1]
         dl2_dx = g2x @ r.dx
         dl2_dt = g2x @ r.dp + g2p
         T1, T2 = r1.step_time, r2.step_time
         dT1_dx, dT1_dt = r1.dT_dx, r1.dT_dp
         dT2_dx = r2.dT_dx @ r1.dx
-        dT2_dt = r2.dT_dx @ r1.dp + r2.dT_dp @ smap.Pi2
+        dT2_dt = r2.dT_dx @ r1.dp + r2.dT_dp @ smap.Pi[1]
         v = np.array([(l1 - l2) / length_scale, (T1 - T2) / time_scale])
         vx = np.vstack([(dl1_dx - dl2_dx) / length_scale, (dT1_dx - dT2_dx) / time_scale])
         vt = np.vstack([(dl1_dt - dl2_dt) / length_scale, (dT1_dt - dT2_dt) / time_scale])
@@ -370,7 +371,7 @@ def phase_time_conditions(smap, phase: str, target_s: float, scale_s: float) -> 
         d2, g2x, g2p = r2.phase_times[phase]
         v = np.array([(d1 - target_s) / scale_s, (d2 - target_s) / scale_s])
         vx = np.vstack([g1x, g2x @ r1.dx]) / scale_s
-        vt = np.vstack([g1p, g2x @ r1.dp + g2p @ smap.Pi2]) / scale_s
+        vt = np.vstack([g1p, g2x @ r1.dp + g2p @ smap.Pi[1]]) / scale_s
         return v, vx, vt
 
     return extra

@@ -10,6 +10,8 @@ eigenvalues of dP/dx at the fixed point (asymptotically stable: spectral radius 
 from __future__ import annotations
 
 import contextlib
+import copy
+import json
 import os
 import sys
 import tempfile
@@ -24,6 +26,9 @@ from pdw_casadi.engine import interrupt
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.model.margins import first_violation, slacks
 from pdw_casadi.model.system import gait_system
+
+#: |P(x) - x| (rad, rad/s) a periodic gait is solved to unless a caller asks otherwise
+FIXED_POINT_TOL = 1e-10
 
 
 @dataclass
@@ -123,22 +128,26 @@ def validity_failure(margins: dict, problem, hs=None) -> str | None:
                            problem.validity)
 
 
-def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int = 30,
+def find_fixed_point(problem, x0=None, p=None, tol: float = FIXED_POINT_TOL, max_iter: int = 30,
                      fallback: bool = True, pmap: PoincareMap | None = None,
-                     verbose: bool = False) -> FixedPointResult:
-    """Fixed point of the Poincare map of ``problem`` near ``x0`` with parameters ``p``.
+                     verbose: bool = False, steps: int = 1) -> FixedPointResult:
+    """Fixed point of the periodic map of ``steps`` steps of ``problem`` (the step map, or
+    the stride with ``steps=2``: :class:`~pdw_casadi.gait.poincare.PoincareMap`) near ``x0``
+    with parameters ``p``.
 
     Args:
         problem: the walker problem (its initial state and parameters are the defaults).
         x0: starting section state (problem order; rad, rad/s).
-        p: compliance + slope vector (problem order).
+        p: the map's parameters (default: its :meth:`~PoincareMap.default_parameters`: the
+            compliance + slope vector in problem order; of a stride, theta).
         tol: Euclidean norm of P(x) - x to reach.
         max_iter: Newton iterations before giving up (then IPOPT if ``fallback``).
+        pmap: the map (default: ``PoincareMap(problem, steps=steps)``).
     """
     t_start = time.perf_counter()
-    P = pmap or PoincareMap(problem)
+    P = pmap or PoincareMap(problem, steps=steps)
     x = np.asarray(problem.state_vector() if x0 is None else x0, float).ravel().copy()
-    p = np.asarray(problem.parameter_vector() if p is None else p, float).ravel()
+    p = np.asarray(P.default_parameters() if p is None else p, float).ravel()
     n = x.size
     history = []
     method = "newton"
@@ -198,6 +207,24 @@ def find_fixed_point(problem, x0=None, p=None, tol: float = 1e-10, max_iter: int
         x, converged = _ipopt_fixed_point(P, x, p, tol)
         method = "ipopt"
     return _finish(problem, P, x, p, converged, it, method, t_start, history)
+
+
+#: the problem's own fixed point, by the problem's content (a fit's report, start ranking and
+#: first start all need it; a few entries: one command uses one or two problems)
+_OWN: dict[str, FixedPointResult] = {}
+_OWN_SIZE = 8
+
+
+def own_fixed_point(problem) -> FixedPointResult:
+    """:func:`find_fixed_point` of ``problem`` from its own state and parameters, computed
+    once per process for a problem of the same content (a copy is returned: callers may
+    change it)."""
+    key = json.dumps(problem.to_dict(), sort_keys=True, default=str)
+    if key not in _OWN:
+        if len(_OWN) >= _OWN_SIZE:
+            _OWN.pop(next(iter(_OWN)))
+        _OWN[key] = find_fixed_point(problem)
+    return copy.deepcopy(_OWN[key])
 
 
 @contextlib.contextmanager

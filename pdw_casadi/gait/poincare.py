@@ -12,6 +12,7 @@ f(tau) dtau/dz. The same chain gives the derivative of the step time.
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -19,13 +20,19 @@ import casadi as ca
 import numpy as np
 
 from pdw_casadi.engine.compile import Lazy, LazyGroup
-from pdw_casadi.engine.errors import PoincareError
+from pdw_casadi.engine.errors import PoincareError, ProblemError
 from pdw_casadi.engine.rk4 import rk4_sensitivities
-from pdw_casadi.gait.simulate import Segment, SimulationResult, Simulator
+from pdw_casadi.gait.simulate import Segment, SimulationResult, Simulator, StepRecord
 from pdw_casadi.model.hybrid import HybridSystem
-from pdw_casadi.model.margins import check_key, phase_key
-from pdw_casadi.model.problem import Problem, load_problem
-from pdw_casadi.model.system import hybrid_system
+from pdw_casadi.model.margins import check_key, leg_key, phase_key
+from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
+from pdw_casadi.model.system import (
+    hybrid_system,
+    leg_layout,
+    per_leg_system,
+    physical_parameter_names,
+    physical_parameter_vector,
+)
 
 _SENS_CHUNKS = (32, 8, 1)
 
@@ -48,6 +55,10 @@ class MapResult:
     #: per validity margin (margins-table key): (value, d/dx, d/dp), its smallest sample
     #: over the step with the exact gradient of that sample (``margin_gradients=True``)
     margin_grads: dict | None = None
+    #: a map of several steps: each step's own result and its parameters in the step's roles
+    #: (empty for a one-step map)
+    steps: tuple = ()
+    step_parameters: tuple = ()
 
 
 class _Sensitivities:
@@ -135,30 +146,111 @@ def _sens(hs: HybridSystem) -> _Sensitivities:
 
 
 class PoincareMap:
-    """P(x, p) of a problem's walker: value, exact Jacobians, and a CasADi-function view."""
+    """The periodic map of ``steps`` steps of a problem's walker: value, exact Jacobians,
+    and a CasADi-function view.
 
-    def __init__(self, problem, hs: HybridSystem | None = None):
-        self.problem = problem
-        # hs: another build of the walker (e.g. the per-leg one of pdw_casadi.gait.stride)
+    ``steps=1``: the step map P(x, p), p the problem's parameters (compliance, slope) on
+    its walker ``hs`` (default: :func:`~pdw_casadi.model.system.hybrid_system`).
+    ``steps=n``: the composition of n steps, the parameters following the physical legs
+    through the leg swaps: theta (:func:`~pdw_casadi.model.system.physical_parameter_names`)
+    on the per-leg walker where the family has one, step k with the left leg in stance for
+    even k and the right for odd k (p_k = theta[perms[k]]); a family without a per-leg
+    build composes its step map with the same p (equal legs only). n = 2 is the stride
+    (:mod:`pdw_casadi.gait.stride`). The Jacobians follow by the chain rule:
+    dP^n/dx = P_n,x ... P_1,x, dP^n/dtheta = sum_k P_n,x ... P_k+1,x P_k,p Pi_k.
+    """
+
+    def __init__(self, problem, hs: HybridSystem | None = None, steps: int = 1):
+        if not isinstance(problem, Problem):
+            problem = load_problem(problem)
+        if steps < 1:
+            raise ValueError(f"a periodic map has at least one step, got {steps}")
+        self.problem, self.steps = problem, int(steps)
+        self.per_leg = False
+        self._theta0 = None  # the default parameters: the problem's (None) or theta
+        if steps > 1 and hs is None:
+            hs = per_leg_system(problem)
+            if hs is None and problem.asymmetric:
+                raise ProblemError(f"{problem.name}: the {problem.family} walker has no "
+                                   f"per-leg build, so its legs cannot differ")
+            self.per_leg = hs is not None
+        # hs: another build of the walker (e.g. the per-leg one)
         self.hs = hs or hybrid_system(problem)
         self.sim = Simulator(problem, self.hs)
         self.state_names = self.hs.model.state_names
         self.parameter_names = self.hs.model.parameter_names
+        if self.steps > 1:  # theta: each physical leg's values (the problem's p otherwise)
+            self.parameter_names = physical_parameter_names(problem)
+        n = len(self.parameter_names)
+        swap = np.arange(n)
+        if self.per_leg:
+            self._theta0 = physical_parameter_vector(problem)
+            comp, leg, _ = leg_layout(problem)
+            nc, nl = len(comp), len(leg)
+            # theta -> role vector of a right-stance step: the right leg's blocks come first
+            idx = np.arange(n)
+            swap = np.r_[idx[nc:2 * nc], idx[:nc], idx[2 * nc + nl:2 * nc + 2 * nl],
+                         idx[2 * nc:2 * nc + nl], idx[2 * nc + 2 * nl:]]
+        #: per step, theta -> that step's role parameters (the left leg in stance first)
+        self.perms = tuple(np.arange(n) if k % 2 == 0 else swap for k in range(self.steps))
+        self.Pi = tuple(np.eye(n)[q] for q in self.perms)  # p_k = Pi[k] @ theta
+        self._ell = None
+
+    def default_parameters(self) -> np.ndarray:
+        """The map's parameters of the problem: its parameter vector (a one-step map) or
+        theta (a map of several steps on the per-leg walker); SI units."""
+        if self._theta0 is not None:
+            return self._theta0.copy()
+        return self.problem.parameter_vector()
+
+    def step_parameters(self, theta) -> tuple[np.ndarray, ...]:
+        """Each step's parameters in its roles from the map's parameters ``theta``."""
+        theta = np.asarray(theta, float).ravel()
+        return tuple(theta.copy() if k == 0 else theta[q] for k, q in enumerate(self.perms))
 
     def __call__(self, x, p=None) -> np.ndarray:
-        """P(x, p): the section state one step later (rad, rad/s)."""
+        """The section state after the map's steps (rad, rad/s)."""
         return self.evaluate(x, p, jacobian=False).x_next
 
     def evaluate(self, x, p=None, jacobian: bool = True, record: bool = False,
                  margins: bool = False, margin_gradients: bool = False) -> MapResult:
-        """Simulate one step from section state ``x``; with ``jacobian`` also dP/dx, dP/dp.
+        """Simulate the map's steps from section state ``x`` with parameters ``p`` (default:
+        :meth:`default_parameters`); with ``jacobian`` also d/dx, d/dp.
 
         ``record``: keep the trajectory (and margins) in ``sim``; ``margins``: margins only.
-        ``margin_gradients`` (with ``jacobian``): also each validity margin's smallest
-        sample with its exact gradient (``margin_grads``; the sensitivities are then
-        carried one RK4 step at a time through phases that have margins, a few times
-        slower).
+        ``margin_gradients`` (with ``jacobian``, one-step maps): also each validity margin's
+        smallest sample with its exact gradient (``margin_grads``; the sensitivities are
+        then carried one RK4 step at a time through phases that have margins, a few times
+        slower). Several steps: ``steps`` holds each step's result, ``sim`` one record of
+        them all (margin names prefixed with the stance leg).
         """
+        if self.steps == 1:
+            return self.evaluate_step(x, p, jacobian, record, margins, margin_gradients)
+        theta = self.default_parameters() if p is None else np.asarray(p, float).ravel()
+        ps = self.step_parameters(theta)
+        rs, xk = [], np.asarray(x, float).ravel()
+        for pk in ps:
+            rs.append(self.evaluate_step(xk, pk, jacobian, record, margins))
+            xk = rs[-1].x_next
+        sim = _merged([r.sim for r in rs])
+        T = rs[0].step_time
+        for r in rs[1:]:
+            T = T + r.step_time
+        if not jacobian:
+            return MapResult(xk, None, None, T, None, None, sim, steps=tuple(rs),
+                             step_parameters=ps)
+        r0 = rs[0]
+        dx, dp, dT_dx, dT_dp = r0.dx, r0.dp, r0.dT_dx, r0.dT_dp
+        for r, Pi in zip(rs[1:], self.Pi[1:], strict=True):
+            dT_dx, dT_dp = dT_dx + r.dT_dx @ dx, dT_dp + r.dT_dx @ dp + r.dT_dp @ Pi
+            dx, dp = r.dx @ dx, r.dx @ dp + r.dp @ Pi
+        return MapResult(xk, dx, dp, T, dT_dx, dT_dp, sim, steps=tuple(rs),
+                         step_parameters=ps)
+
+    def evaluate_step(self, x, p=None, jacobian: bool = True, record: bool = False,
+                      margins: bool = False, margin_gradients: bool = False) -> MapResult:
+        """One step of the walker from section state ``x`` with the step's role parameters
+        ``p`` (default: the problem's); the arguments as :meth:`evaluate`."""
         p = self.problem.parameter_vector() if p is None else np.asarray(p, float).ravel()
         x = np.asarray(x, float).ravel()
         res = self.sim.run(x, p, steps=1, record=record, margins=margins)
@@ -251,6 +343,35 @@ class PoincareMap:
             if key not in mins or v[j] < mins[key][0]:
                 mins[key] = (float(v[j]), vx[j] @ S + vp[j] @ sens.Sp)
 
+    def resimulation_deviation(self, xs_steps, p=None, steps: int = 20) -> float:
+        """The largest deviation (rad, rad/s) over ``steps`` simulated steps from
+        ``xs_steps[0]`` of each step's section state from the one given for it
+        (``xs_steps``: one state per step of the map, e.g. an NLP's nodes; the map's steps
+        repeat), with the map's parameters ``p``; inf when the walker fails on the way."""
+        xs = [np.asarray(v, float).ravel() for v in xs_steps]
+        p = self.default_parameters() if p is None else p
+        if self.steps == 1:
+            run = self.sim.run(xs[0], p, steps=steps, record=False)
+        else:
+            run = self.sim.run(xs[0], None, steps=steps, record=False,
+                               p_steps=list(self.step_parameters(p)))
+        if run.failure is not None:
+            return math.inf
+        ps = run.poincare_states
+        return float(max(np.abs(ps[k::self.steps] - x).max() for k, x in enumerate(xs)))
+
+    def step_length(self, x_end, p_next) -> tuple[float, np.ndarray, np.ndarray]:
+        """Length (m) of the step that ended in section state ``x_end`` (read from the
+        section geometry with the next step's role parameters ``p_next``), with its exact
+        gradients with respect to ``x_end`` and ``p_next``."""
+        if self._ell is None:
+            self._ell = _section_step_length(self.hs)
+        if self._ell is False:
+            raise ValueError(f"{self.problem.family}: no toe points for the section step "
+                             f"length")
+        v, gx, gp = (np.asarray(a, float).ravel() for a in self._ell(x_end, p_next))
+        return float(v[0]), gx, gp
+
     def jacobian(self, x, p=None):
         """(P(x, p), dP/dx, dP/dp) with exact AD derivatives."""
         r = self.evaluate(x, p)
@@ -259,6 +380,49 @@ class PoincareMap:
     def as_casadi(self) -> ca.Function:
         """P as a CasADi function of (x, p) with exact Jacobian (for NLPs and rootfinders)."""
         return _PoincareCallback("poincare_map", self)
+
+
+def _section_step_length(hs: HybridSystem):
+    """CasADi function (xs, p) -> (step length, d/dxs, d/dp) of walkers with toe points
+    (False for the others): after the swap the new leading toe sits at the origin and the
+    trailing toe where the old leading toe was, so the step length is -(trailing toe .
+    downhill direction)."""
+    if "toe2" not in hs.point_names:
+        return False
+    model = hs.model
+    xs = ca.SX.sym("xs", len(model.state_names))
+    p = model.p
+    # the walker's own step length (leading minus trailing toe along the slope), read
+    # with the legs' roles after the swap
+    ell = -hs.step_length.fun(model.section_to_full(xs, p), p)
+    return ca.Function("section_step_length", [xs, p],
+                       [ell, ca.jacobian(ell, xs), ca.jacobian(ell, p)])
+
+
+def _merged(sims: list[SimulationResult]) -> SimulationResult:
+    """One record for several steps (phases, lengths, losses, margins of every step; margin
+    names prefixed with the stance leg, the smallest value per leg) so that fixed-point
+    reports read the whole period."""
+    recs = [s.steps[0] for s in sims]
+    a, b = recs[0], recs[-1]
+    margins: dict = {}
+    for k, r in enumerate(recs):
+        for key, v in r.margins.items():
+            name = leg_key(LEG_SIDES[k % 2], key)
+            margins[name] = v if name not in margins else min(margins[name], v)
+
+    def total(attr):
+        out = getattr(a, attr)
+        for r in recs[1:]:
+            out = out + getattr(r, attr)
+        return out
+
+    rec = StepRecord(0, a.t_start, [ph for r in recs for ph in r.phases], a.x_section_start,
+                     b.x_section_end, total("step_length"), total("dissipated_damping_J"),
+                     total("impact_loss_J"), total("spring_loss_J"), a.energy_start_J,
+                     b.energy_end_J, margins)
+    return SimulationResult(None, [], [rec], None, sims[-1].state_names,
+                            sims[-1].final_state, sims[-1].final_mode)
 
 
 class _PhaseClock:
@@ -337,6 +501,6 @@ class _PoincareCallback(ca.Callback):
         return self._jac
 
 
-def poincare_map(problem) -> PoincareMap:
-    """The Poincare map of ``problem``'s walker (see :class:`PoincareMap`)."""
-    return PoincareMap(problem if isinstance(problem, Problem) else load_problem(problem))
+def poincare_map(problem, steps: int = 1) -> PoincareMap:
+    """The periodic map of ``steps`` steps of ``problem``'s walker (see :class:`PoincareMap`)."""
+    return PoincareMap(problem, steps=steps)

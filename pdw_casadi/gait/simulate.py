@@ -569,22 +569,41 @@ class Simulator:
                     margins[key] = float(min(vals.min(), margins.get(key, math.inf)))
 
     def _trajectory(self, rec, records, ps) -> pd.DataFrame:
+        """The recorded chunks as one table (one row per RK4 sample; a phase's outputs are
+        NaN in the rows of phases without them). Built column by column: a DataFrame per
+        chunk cost more than the simulation."""
         hs = self.hs
         q_names = _q_names(hs)
-        frames = []
+        groups: list[list] = []  # consecutive chunks of one phase, step and mode
         for ph, mv, ts, X, k in rec:  # TraceChunk fields
-            out = hs.outputs[ph](X, ps[k % len(ps)], mv).full()
-            data = {"t": ts, "step": k, "phase": ph}
-            for j, n in enumerate(q_names):
-                data[n] = X[j]
-                data["d" + n] = X[hs.nq + j]
-            data["damping_work_J"] = X[-1]
-            for j, n in enumerate(hs.output_names[ph]):
-                data[n] = out[j]
-            frames.append(pd.DataFrame(data))
-        if not frames:
+            mode = tuple(np.ravel(mv))
+            if groups and groups[-1][0] == (ph, k, mode):
+                groups[-1][1].append(ts)
+                groups[-1][2].append(X)
+            else:
+                groups.append([(ph, k, mode), [ts], [X], mv])
+        if not groups:
             return pd.DataFrame()
-        return pd.concat(frames, ignore_index=True)
+        cols: dict[str, list] = {}
+        sizes = []
+        for (ph, k, _), tss, Xs, mv in groups:
+            ts, X = np.concatenate(tss), np.hstack(Xs)
+            n = ts.size
+            out = hs.outputs[ph](X, ps[k % len(ps)], mv).full()
+            data = {"t": ts, "step": np.full(n, k), "phase": np.full(n, ph, dtype=object)}
+            for j, name in enumerate(q_names):
+                data[name] = X[j]
+                data["d" + name] = X[hs.nq + j]
+            data["damping_work_J"] = X[-1]
+            for j, name in enumerate(hs.output_names[ph]):
+                data[name] = out[j]
+            for name in data:
+                if name not in cols:  # a column first seen here: NaN in the rows before
+                    cols[name] = [np.full(m, np.nan) for m in sizes]
+            for name, parts in cols.items():
+                parts.append(data[name] if name in data else np.full(n, np.nan))
+            sizes.append(n)
+        return pd.DataFrame({name: np.concatenate(parts) for name, parts in cols.items()})
 
 
 _ADVICE = ("a numerical blow-up, not a physical failure: the step size "

@@ -1,4 +1,4 @@
-"""The stride map: two steps, one with each physical leg as the stance leg.
+"""The stride: the periodic map of two steps, one with each physical leg as the stance leg.
 
 A walker whose two legs differ (a prosthesis, an orthosis, a subject's asymmetry) has no
 one-step periodic gait: its gait repeats every stride. The stride map is the composition
@@ -12,6 +12,9 @@ the physical leg through the leg swap. A stride starts at the section with the l
 leading. The exact AD Jacobian follows by the chain rule from the step map's:
 dS/dx = P2_x P1_x and dS/dtheta = P2_x P1_p Pi_1 + P2_p Pi_2 (Pi: the role permutations).
 
+The stride map is :class:`~pdw_casadi.gait.poincare.PoincareMap` with ``steps=2``
+(:func:`stride_map`), the step map the same class with ``steps=1``.
+
 Walkers with a per-leg build (``build_per_leg`` in their family module: every body and
 compliance value a runtime parameter, leg by leg) use it, theta = [left compliance, right
 compliance, left anthropometry, right anthropometry, shared body values, slope]; the others
@@ -20,190 +23,46 @@ compose their ordinary step map with the same p twice (symmetric walkers only).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
-import casadi as ca
 import numpy as np
 import pandas as pd
 
-from pdw_casadi.gait.poincare import MapResult, PoincareError, PoincareMap
-from pdw_casadi.gait.simulate import SimulationResult, Simulator, StepRecord
-from pdw_casadi.model.hybrid import HybridSystem
-from pdw_casadi.model.margins import leg_key
-from pdw_casadi.model.problem import LEG_SIDES, Problem, ProblemError, load_problem
-from pdw_casadi.model.system import per_leg_system
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
+from pdw_casadi.gait.poincare import PoincareError, PoincareMap
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
+from pdw_casadi.model.system import (  # noqa: F401 (the per-leg walker, re-exported)
+    per_leg_system,
+    physical_parameter_names,
+    physical_parameter_vector,
+    with_physical_parameters,
+)
 
 
-def _layout(problem: Problem):
-    """(compliance keys, leg anthropometry keys, shared anthropometry keys) of the family."""
-    from pdw_casadi.model.walkers import get_family
-
-    fam = get_family(problem.family)
-    comp = tuple(fam.compliance_keys)
-    leg = tuple(fam.leg_keys["anthropometry"])
-    shared = tuple(k for k in fam.anthropometry_keys if k not in leg)
-    return comp, leg, shared
+def stride_map(problem) -> PoincareMap:
+    """The stride map S(x, theta) of ``problem``'s walker (a problem or a bundled name): the
+    periodic map of two steps, ``PoincareMap(problem, steps=2)`` (module docstring)."""
+    if not isinstance(problem, Problem):
+        problem = load_problem(problem)
+    return PoincareMap(problem, steps=2)
 
 
-def physical_parameter_names(problem: Problem) -> tuple[str, ...]:
-    """Names of theta: ``left.k_ankle``, ..., ``right.J_f``, shared body keys, ``slope``."""
-    if per_leg_system(problem) is None:
-        return (*problem.compliance, "slope")
-    comp, leg, shared = _layout(problem)
-    return (*(f"{s}.{k}" for s in LEG_SIDES for k in comp),
-            *(f"{s}.{k}" for s in LEG_SIDES for k in leg), *shared, "slope")
+def period_steps(problem) -> int:
+    """The steps after which ``problem``'s gait repeats: 2 (the stride) when its legs
+    differ, else 1 (the step)."""
+    return 2 if problem.asymmetric else 1
 
 
-def physical_parameter_vector(problem: Problem) -> np.ndarray:
-    """theta of ``problem`` (order of :func:`physical_parameter_names`; SI units)."""
-    if per_leg_system(problem) is None:
-        return problem.parameter_vector()
-    comp, leg, shared = _layout(problem)
-    vals = {s: problem.leg_values(s) for s in LEG_SIDES}
-    return np.array([*(vals[s][0][k] for s in LEG_SIDES for k in comp),
-                     *(vals[s][1][k] for s in LEG_SIDES for k in leg),
-                     *(problem.anthropometry[k] for k in shared), problem.slope], float)
+#: the stride map's former class name: the stride is the two-step :class:`PoincareMap`
+StrideMap = stride_map
 
 
-def with_physical_parameters(problem: Problem, theta) -> Problem:
-    """A copy of ``problem`` whose legs carry the values of theta (per-leg walkers)."""
-    theta = np.asarray(theta, float).ravel()
-    names = physical_parameter_names(problem)
-    if theta.size != len(names):
-        raise ProblemError(f"{problem.name}: theta has {theta.size} values, expected "
-                           f"{len(names)}")
-    if per_leg_system(problem) is None:
-        return problem.with_parameters(theta)
-    d = dict(zip(names, map(float, theta), strict=True))
-    comp, leg, shared = _layout(problem)
-    base_c = {k: d[f"left.{k}"] for k in comp}
-    base_a = {**problem.anthropometry, **{k: d[f"left.{k}"] for k in leg},
-              **{k: d[k] for k in shared}}
-    right_c = {k: d[f"right.{k}"] for k in comp if d[f"right.{k}"] != base_c[k]}
-    right_a = {k: d[f"right.{k}"] for k in leg if d[f"right.{k}"] != base_a[k]}
-    legs = {}
-    if right_c or right_a:
-        legs["right"] = {"compliance": right_c, "anthropometry": right_a}
-    return problem.replace(compliance=base_c, anthropometry=base_a, slope=d["slope"],
-                           legs=legs)
-
-
-@dataclass
-class StrideResult(MapResult):
-    """S(x, theta) with exact derivatives (``dx``, ``dp`` = dS/dtheta, ``step_time`` = the
-    stride time, s); ``steps``: the two step maps' results (left stance, then right)."""
-
-    steps: tuple = field(default_factory=tuple)
-    step_parameters: tuple = field(default_factory=tuple)
-
-
-class StrideMap(PoincareMap):
-    """The stride map S(x, theta) of a problem's walker (see the module docstring)."""
-
-    def __init__(self, problem):
-        if not isinstance(problem, Problem):
-            problem = load_problem(problem)
-        hs = per_leg_system(problem)
-        if hs is None and problem.asymmetric:
-            raise ProblemError(f"{problem.name}: the {problem.family} walker has no per-leg "
-                               f"build, so its legs cannot differ")
-        super().__init__(problem, hs)
-        self.per_leg = hs is not None
-        self.parameter_names = physical_parameter_names(problem)
-        n = len(self.parameter_names)
-        if self.per_leg:
-            comp, leg, shared = _layout(problem)
-            nc, nl = len(comp), len(leg)
-            # theta -> role vector of the second step: the right leg's blocks come first
-            idx = np.arange(n)
-            perm = np.r_[idx[nc:2 * nc], idx[:nc], idx[2 * nc + nl:2 * nc + 2 * nl],
-                         idx[2 * nc:2 * nc + nl], idx[2 * nc + 2 * nl:]]
-        else:
-            perm = np.arange(n)
-        self.perm = perm
-        self.Pi2 = np.eye(n)[perm]  # p_right = Pi2 @ theta
-        self._ell = _section_step_length(self.hs)
-
-    def default_parameters(self) -> np.ndarray:
-        return physical_parameter_vector(self.problem)
-
-    def step_parameters(self, theta) -> tuple[np.ndarray, np.ndarray]:
-        """(p of the left-stance step, p of the right-stance step) from theta."""
-        theta = np.asarray(theta, float).ravel()
-        return theta.copy(), theta[self.perm]
-
-    def evaluate(self, x, p=None, jacobian: bool = True, record: bool = False,
-                 margins: bool = False) -> StrideResult:
-        """Simulate one stride from section state ``x`` with physical parameters ``p``."""
-        theta = self.default_parameters() if p is None else np.asarray(p, float).ravel()
-        p1, p2 = self.step_parameters(theta)
-        x = np.asarray(x, float).ravel()
-        r1 = PoincareMap.evaluate(self, x, p1, jacobian, record, margins)
-        r2 = PoincareMap.evaluate(self, r1.x_next, p2, jacobian, record, margins)
-        sim = _merged(r1.sim, r2.sim)
-        T = r1.step_time + r2.step_time
-        if not jacobian:
-            return StrideResult(r2.x_next, None, None, T, None, None, sim, steps=(r1, r2),
-                                step_parameters=(p1, p2))
-        dx = r2.dx @ r1.dx
-        dp = r2.dx @ r1.dp + r2.dp @ self.Pi2
-        dT_dx = r1.dT_dx + r2.dT_dx @ r1.dx
-        dT_dp = r1.dT_dp + r2.dT_dx @ r1.dp + r2.dT_dp @ self.Pi2
-        return StrideResult(r2.x_next, dx, dp, T, dT_dx, dT_dp, sim, steps=(r1, r2),
-                            step_parameters=(p1, p2))
-
-    def step_length(self, x_end, p_next) -> tuple[float, np.ndarray, np.ndarray]:
-        """Length (m) of the step that ended in section state ``x_end`` (read from the
-        section geometry with the next step's role parameters ``p_next``), with its exact
-        gradients with respect to ``x_end`` and ``p_next``."""
-        if self._ell is None:
-            raise ValueError(f"{self.problem.family}: no toe points for the section step "
-                             f"length")
-        v, gx, gp = (np.asarray(a, float).ravel() for a in self._ell(x_end, p_next))
-        return float(v[0]), gx, gp
-
-
-def _section_step_length(hs: HybridSystem):
-    """CasADi function (xs, p) -> (step length, d/dxs, d/dp) of walkers with toe points:
-    after the swap the new leading toe sits at the origin and the trailing toe where the
-    old leading toe was, so the step length is -(trailing toe . downhill direction)."""
-    if "toe2" not in hs.point_names:
-        return None
-    model = hs.model
-    xs = ca.SX.sym("xs", len(model.state_names))
-    p = model.p
-    # the walker's own step length (leading minus trailing toe along the slope), read
-    # with the legs' roles after the swap
-    ell = -hs.step_length.fun(model.section_to_full(xs, p), p)
-    return ca.Function("section_step_length", [xs, p],
-                       [ell, ca.jacobian(ell, xs), ca.jacobian(ell, p)])
-
-
-def _merged(s1: SimulationResult, s2: SimulationResult) -> SimulationResult:
-    """One record for the stride (phases, lengths, losses, margins of both steps; margin
-    names prefixed with the stance leg) so that fixed-point reports read the whole stride."""
-    a, b = s1.steps[0], s2.steps[0]
-    rec = StepRecord(0, a.t_start, [*a.phases, *b.phases], a.x_section_start, b.x_section_end,
-                     a.step_length + b.step_length,
-                     a.dissipated_damping_J + b.dissipated_damping_J,
-                     a.impact_loss_J + b.impact_loss_J, a.spring_loss_J + b.spring_loss_J,
-                     a.energy_start_J, b.energy_end_J,
-                     {**{leg_key(LEG_SIDES[0], k): v for k, v in a.margins.items()},
-                      **{leg_key(LEG_SIDES[1], k): v for k, v in b.margins.items()}})
-    return SimulationResult(None, [], [rec], None, s2.state_names, s2.final_state,
-                            s2.final_mode)
-
-
-def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = 1e-10,
+def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = FIXED_POINT_TOL,
                             max_iter: int = 30, fallback: bool = True,
-                            smap: StrideMap | None = None):
-    """Periodic gait of the stride map: S(x, theta) = x by Newton with the exact Jacobian
-    (:func:`pdw_casadi.gait.fixed_point.find_fixed_point` on the stride map). The result's
+                            smap: PoincareMap | None = None):
+    """Periodic gait of the stride map: S(x, theta) = x,
+    :func:`~pdw_casadi.gait.fixed_point.find_fixed_point` on the two-step map. The result's
     eigenvalues are those of dS/dx; its step time and length are the stride's (s, m)."""
-    from pdw_casadi.gait.fixed_point import find_fixed_point
-
-    smap = smap or StrideMap(problem)
-    theta = smap.default_parameters() if theta is None else np.asarray(theta, float)
+    smap = smap or stride_map(problem)
     return find_fixed_point(smap.problem, x0=x0, p=theta, tol=tol, max_iter=max_iter,
                             fallback=fallback, pmap=smap)
 
@@ -213,7 +72,7 @@ def asymmetry_pct(a: float, b: float) -> float:
     return 100.0 * (a - b) / (0.5 * (a + b))
 
 
-def stride_report(smap: StrideMap, x, theta=None, curves: bool = True) -> dict:
+def stride_report(smap: PoincareMap, x, theta=None, curves: bool = True) -> dict:
     """Per-leg gait measures of the stride from section state ``x`` (a stride fixed point).
 
     Per physical leg: the length (m) and time (s) of the step on which it is the stance
@@ -263,7 +122,7 @@ def stride_report(smap: StrideMap, x, theta=None, curves: bool = True) -> dict:
     return out
 
 
-def stride_timing(smap: StrideMap, x, theta=None) -> dict:
+def stride_timing(smap: PoincareMap, x, theta=None) -> dict:
     """Gait timing of each physical leg's cycle (its stance step, then its swing step) at
     the stride from section state ``x``: ``{"left": GaitTiming, "right": GaitTiming}``
     (:mod:`pdw_casadi.gait.timing`; the cycle's speed is the stride length over its time).
@@ -309,7 +168,7 @@ def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str 
 def stride_simulator(problem) -> tuple[Simulator, list[np.ndarray]]:
     """A simulator of ``problem``'s walker and the step parameters to use in turn
     (``Simulator.run(..., p_steps=...)``): step 0 with the left leg in stance, step 1 with
-    the right, and so on."""
-    smap = problem if isinstance(problem, StrideMap) else StrideMap(problem)
+    the right, and so on. ``problem``: a problem or its stride map."""
+    smap = problem if isinstance(problem, PoincareMap) else stride_map(problem)
     return Simulator(smap.problem, smap.hs), list(smap.step_parameters(
         smap.default_parameters()))

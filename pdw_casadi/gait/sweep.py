@@ -45,7 +45,7 @@ from pdw_casadi.gait.continuation import (
     with_value,
 )
 from pdw_casadi.gait.curves import cycle_curves, fit_scores
-from pdw_casadi.gait.fixed_point import FixedPointResult
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, FixedPointResult
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import Problem, check_bounds
@@ -62,7 +62,7 @@ class SweepSettings:
     real eigenvalue is within this of +1; ``predictor``: ``"tangent"`` or ``"secant"``.
     """
 
-    tol: float = 1e-10
+    tol: float = FIXED_POINT_TOL
     max_iter: int = 10
     refinements: int = 12
     xtol: float = 1e-6

@@ -32,8 +32,8 @@ parameter vector is then theta (each physical leg's values, :mod:`pdw_casadi.gai
 i's segments use p_i = theta[perm_i], and step i + 1 starts from its own section state
 xs_(i+1) (an unknown, appended to ``w``): full_to_section(foot-strike impact(X_end of step
 i), p_i) = xs_(i+1) and X_start of step i + 1 = section_to_full(xs_(i+1), p_(i+1)), the
-composition of :class:`~pdw_casadi.gait.stride.StrideMap`; periodicity closes the last step on
-xs. :meth:`ShootingNLP.stride` builds it for a problem's per-leg walker.
+composition of the two-step :class:`~pdw_casadi.gait.poincare.PoincareMap`; periodicity
+closes the last step on xs. :meth:`ShootingNLP.stride` builds it for a problem's per-leg walker.
 """
 
 from __future__ import annotations
@@ -52,6 +52,9 @@ H_MAX_FACTOR = 1.25  # largest RK4 step in the NLP, in units of the simulator's 
 #: margins are demanded this much beyond the problem's minimum (N or m), so that a binding
 #: margin still passes the simulator's strict check after IPOPT's 1e-8 feasibility
 MARGIN_SLACK = 1e-6
+#: the NLP's own slope bounds (rad) when a caller gives none (the fit has its own:
+#: FitOptions.slope_bounds)
+SLOPE_BOUNDS = (0.02, 0.30)
 N_SUB = 10  # RK4 steps per shooting interval (one compiled function per phase)
 
 
@@ -156,18 +159,18 @@ class ShootingNLP:
     @classmethod
     def stride(cls, problem, x0, theta0=None, free: tuple[str, ...] = (), **kw):
         """The two-step (stride) NLP of ``problem``'s per-leg walker
-        (:func:`~pdw_casadi.gait.stride.per_leg_system`): parameters theta in the order of
-        :func:`~pdw_casadi.gait.stride.physical_parameter_names` (``free`` names from there, e.g.
+        (:func:`~pdw_casadi.model.system.per_leg_system`): parameters theta in the order of
+        :func:`~pdw_casadi.model.system.physical_parameter_names` (``free`` names from there, e.g.
         ``right.k_ankle``), step 1 with the left leg in stance, step 2 with the right, from
         section state ``x0`` (SI units)."""
-        from pdw_casadi.gait.stride import StrideMap
+        from pdw_casadi.gait.poincare import PoincareMap
 
-        smap = StrideMap(problem)
+        smap = PoincareMap(problem, steps=2)
         if not smap.per_leg:
             raise ValueError(f"{problem.family}: no per-leg walker for a stride NLP")
         theta0 = smap.default_parameters() if theta0 is None else theta0
         nlp = cls(problem, x0, theta0, free=free, hs=smap.hs,
-                  step_perms=[np.arange(len(smap.parameter_names)), smap.perm],
+                  step_perms=list(smap.perms),
                   param_names=smap.parameter_names, **kw)
         nlp.stride_map = smap
         return nlp
@@ -410,7 +413,7 @@ class ShootingNLP:
         return [(self.g_names[i], float(viol[i])) for i in order if viol[i] > 0]
 
     # -- bounds ------------------------------------------------------------------------------
-    def bounds(self, slope_bounds=(0.02, 0.30), t_min: float = 1e-3):
+    def bounds(self, slope_bounds=SLOPE_BOUNDS, t_min: float = 1e-3):
         """Lower and upper bounds of the unknowns (compliance from the problem file).
 
         ``t_min`` (s): shortest segment. The event order is part of the assumed gait

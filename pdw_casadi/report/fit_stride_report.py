@@ -1,6 +1,6 @@
 """Run a per-leg (stride) fit and write its report: summary.json, curves.csv, fit.png, table.md.
 
-The report of :func:`pdw_casadi.fit.stride_fit.fit_stride`: R^2 per leg and curve of the
+The report of the per-leg fit (:func:`pdw_casadi.fit.core.fit_sides`): R^2 per leg and curve of the
 re-simulated stride and of its symmetric start, each leg's compliance, the step-length and
 step-time asymmetry (%, 100 (L - R) / mean), the stride's spectral radius (the verdict,
 <= max_radius^2) and its per-step equivalent (its square root), validity and the
@@ -17,8 +17,9 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from pdw_casadi.engine.jsonio import write_json
-from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitOptions, StrideFitResult, fit_stride
-from pdw_casadi.gait.stride import StrideMap
+from pdw_casadi.fit.core import fit_stride
+from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitOptions, StrideFitResult
+from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
 from pdw_casadi.report.plots import plot_fit
@@ -46,7 +47,7 @@ def _f(v, fmt="{:.3f}") -> str:
 
 def leg_compliance(problem, theta) -> dict:
     """Each leg's compliance {side: {name: value}} from physical parameters ``theta``."""
-    names = list(StrideMap(problem).parameter_names)
+    names = list(stride_map(problem).parameter_names)
     return {s: {k: float(theta[names.index(f"{s}.{k}")]) for k in problem.compliance_names}
             for s in SIDES}
 
@@ -152,7 +153,7 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
     if cand is not None:
         fp, rep = cand.fixed_point, cand.report
         comp = leg_compliance(problem, cand.theta)
-        names = list(StrideMap(problem).parameter_names)
+        names = list(stride_map(problem).parameter_names)
         legs = {s: {**cand.scores[s], "compliance": comp[s], **rep["legs"][s]} for s in SIDES}
         summary.update({
             "legs": legs, "slope": float(cand.theta[names.index("slope")]),
@@ -183,7 +184,7 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
             f"{cand.report['step_length_asymmetry_pct']:+.2f} / "
             f"{cand.report['step_time_asymmetry_pct']:+.2f} %   stride radius "
             f"{cand.fixed_point.spectral_radius:.4f} ({verdict})")
-    summary["units"] = summary_units(summary, StrideMap(problem).hs)
+    summary["units"] = summary_units(summary, stride_map(problem).hs)
     # here the legs are the physical legs, not the step's stance and swing roles
     summary["units"]["legs"] = (
         "left, right: the physical legs; R^2 dimensionless, names carry their unit "

@@ -62,13 +62,14 @@ from pdw_casadi.engine.errors import GaitDataError, ProblemError, UsageError
 from pdw_casadi.engine.jsonio import jsonable
 from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit import FitOptions, fit_gait, mean_score
-from pdw_casadi.fit.stride_fit import StrideFitOptions, fit_stride
-from pdw_casadi.gait.stride import StrideMap
+from pdw_casadi.fit.core import fit_stride
+from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
 from pdw_casadi.model.problem import Problem, load_problem, problem_from_dict
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
-from pdw_casadi.studies.scaling import problem_toml
+from pdw_casadi.studies.scaling import BODY_MAX_RADIUS, problem_toml
 
 #: kinds of fit: "symmetric" (one-step fit, one set of compliance) and "sides" (per-leg
 #: fit on the stride); a study selects with "auto" (each file as its header says),
@@ -111,7 +112,7 @@ class CohortOptions:
     kind: str = "auto"
     body: str = "own"
     fit: StrideFitOptions = field(default_factory=lambda: StrideFitOptions(verbose=False))
-    body_max_radius: float = 0.9
+    body_max_radius: float = BODY_MAX_RADIUS
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -476,14 +477,21 @@ def compliance_column(name: str, side: str | None = None) -> str:
     return base if unit is None else f"{base}_" + unit.replace(" ", "_").replace("/", "_per_")
 
 
-def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
-    res = fit_gait(problem, human, opts, log=lambda m: None)
+def _fit_outcome(res, score) -> tuple:
+    """(the fit's accepted candidate, else its best by ``score``, or None; whether it was
+    accepted; the row's solver columns) of a fit result (either kind)."""
     cand, accepted = res.best, res.best is not None
     if cand is None and res.candidates:
-        cand = max(res.candidates, key=lambda c: mean_score(c, res.targets))
+        cand = max(res.candidates, key=score)
     row: dict = {"solver_status": res.solves[-1].status if res.solves else None,
                  "iterations": int(sum(s.iterations for s in res.solves)),
                  "solves": len(res.solves)}
+    return cand, accepted, row
+
+
+def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
+    res = fit_gait(problem, human, opts, log=lambda m: None)
+    cand, accepted, row = _fit_outcome(res, lambda c: mean_score(c, res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "every start failed")
         return row, None
@@ -502,34 +510,32 @@ def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
         row.update(stance_pct=timing.stance_pct,
                    double_support_pct=timing.double_support_total_pct)
     row.update(status="accepted" if accepted else "rejected",
-               reason="" if accepted else _rejection(row, opts.max_radius, fp.failure))
+               reason="" if accepted else _rejection(row, opts, fp.failure))
     return row, cand.curves
 
 
-def _rejection(row: dict, max_radius: float, failure) -> str:
+def _rejection(row: dict, opts: FitOptions, failure) -> str:
+    """Why a fit's row was not accepted: its per-step radius above ``opts.max_radius``,
+    invalid, or re-simulated off its NLP answer (by more than ``opts.resim_tol``)."""
+    max_radius = opts.max_radius
     why = []
     if row["spectral_radius"] > max_radius or not row["stable"]:
         why.append(f"spectral radius {row['spectral_radius']:.4f} > {max_radius:g}")
     if not row["valid"]:
         why.append("invalid" + (f" ({failure})" if failure else "")
                    + (f", re-simulation deviation {row['resimulation_deviation']:.2e}"
-                      if not row["resimulation_deviation"] < 1e-6 else ""))
+                      if not row["resimulation_deviation"] < opts.resim_tol else ""))
     return "; ".join(why) or "not accepted"
 
 
 def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions):
     res = fit_stride(problem, sides, opts, log=lambda m: None)
-    cand, accepted = res.best, res.best is not None
-    if cand is None and res.candidates:
-        cand = max(res.candidates, key=lambda c: c.mean_score(res.targets))
-    row: dict = {"solver_status": res.solves[-1].status if res.solves else None,
-                 "iterations": int(sum(s.iterations for s in res.solves)),
-                 "solves": len(res.solves)}
+    cand, accepted, row = _fit_outcome(res, lambda c: c.mean_score(res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "the stride solve failed")
         return row, None
     fp, rep = cand.fixed_point, cand.report
-    names = list(StrideMap(problem).parameter_names)
+    names = list(stride_map(problem).parameter_names)
     for t in ("knee", "hip", "thigh"):
         vals = [cand.scores[s].get(f"r2_{t}") for s in SIDES]
         for s, v in zip(SIDES, vals, strict=True):
@@ -552,7 +558,7 @@ def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions)
                step_length_asymmetry_pct=rep["step_length_asymmetry_pct"],
                step_time_asymmetry_pct=rep["step_time_asymmetry_pct"])
     row.update(status="accepted" if accepted else "rejected",
-               reason="" if accepted else _rejection(row, opts.max_radius, fp.failure))
+               reason="" if accepted else _rejection(row, opts, fp.failure))
     curves = pd.concat([rep["curves"][s].add_suffix(f"_{s}") for s in SIDES], axis=1)
     return row, curves
 
@@ -697,7 +703,7 @@ def check_walker(reference: Problem, entries: Sequence[StudyEntry], options: Coh
         if not reference.compliance:
             raise UsageError(f"{reference.name} has no compliance values to fit per leg")
         try:
-            StrideMap(reference)
+            stride_map(reference)
         except ProblemError as exc:
             raise UsageError(f"per-side fits: {exc}") from None
     fit_opts = symmetric_options(options.fit)

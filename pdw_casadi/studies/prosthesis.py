@@ -50,11 +50,12 @@ from pdw_casadi.gait.design import (
     phase_time_conditions,
     symmetry_conditions,
 )
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.stride import (
-    StrideMap,
     find_stride_fixed_point,
     physical_parameter_names,
     physical_parameter_vector,
+    stride_map,
     stride_report,
     with_physical_parameters,
 )
@@ -127,7 +128,7 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     if problem.asymmetric:
         raise ProblemError(f"{problem.name}: start from a symmetric walker")
     opts = options or DesignOptions()
-    smap = StrideMap(problem)
+    smap = stride_map(problem)
     if x0 is None:
         fp0 = find_stride_fixed_point(problem, smap=smap, tol=opts.tol)
         if not fp0.converged:
@@ -152,7 +153,7 @@ def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str
     designed = designed.replace(
         name=f"{problem.name}_prosthesis",
         initial_state=dict(zip(problem.initial_state, last.state, strict=True)))
-    smap_d = StrideMap(designed)
+    smap_d = stride_map(designed)
     fp = find_stride_fixed_point(designed, x0=last.state, theta=last.theta, tol=opts.tol,
                                  fallback=False, smap=smap_d)
     report = stride_report(smap_d, fp.state, fp.parameters)
@@ -199,7 +200,7 @@ class DesignNLPOptions:
     ``max_step``), a failed one is retried at half the size (down to ``min_step``), at most
     ``max_solves`` NLP solves; ``first_step`` >= ``lighter`` solves the target directly.
     ``symmetry_tol_pct``: the largest accepted |step-length| and |step-time asymmetry| in
-    the NLP, % (0: equal; below the verdict's 1 %).
+    the NLP, % (0: equal; below the verdict's ``symmetry_verdict_pct``).
     Stability: the NLP bounds the smooth bound rho_32 (>= the spectral radius) of the
     stride Jacobian by ``max_stride_radius - radius_margin``; the re-simulated stride
     radius is the verdict (<= ``max_stride_radius``; 0.81 = 0.9 per step). IPOPT:
@@ -215,6 +216,9 @@ class DesignNLPOptions:
     min_step: float = 1e-4
     max_solves: int = 20
     symmetry_tol_pct: float = 0.0
+    #: the verdict's largest |step-length| and |step-time asymmetry|, % (symmetry_tol_pct,
+    #: the NLP's own tolerance, must lie below it)
+    symmetry_verdict_pct: float = 1.0
     max_stride_radius: float = 0.81
     radius_margin: float = 0.01
     max_iter: int = 100  # IPOPT iterations per homotopy step
@@ -242,7 +246,8 @@ class DesignNLPOptions:
     free_sound: tuple = ()
     #: accept a homotopy step whose IPOPT solve stopped without success (iteration limit)
     #: when its answer re-simulates as the verdict asks: a stride fixed point that is stable
-    #: (<= max_stride_radius), valid and with both asymmetries below 1 %. The re-simulation
+    #: (<= max_stride_radius), valid and with both asymmetries below symmetry_verdict_pct.
+    #: The re-simulation
     #: is the verdict either way; False: only IPOPT successes are accepted
     accept_verified: bool = False
     verbose: bool = False
@@ -250,6 +255,31 @@ class DesignNLPOptions:
     #: IPOPT inf_pr / inf_du trend
     diagnose: bool = False
     ipopt: dict = field(default_factory=dict)
+
+    @property
+    def max_step_radius(self) -> float:
+        """The per-step spectral radius of the verdict: a stride is two steps."""
+        return math.sqrt(self.max_stride_radius)
+
+    def check_symmetry_tol(self) -> None:
+        """Raise :class:`ProblemError` unless the NLP's symmetry tolerance lies inside the
+        verdict's, [0, ``symmetry_verdict_pct``) %."""
+        if not 0.0 <= self.symmetry_tol_pct < self.symmetry_verdict_pct:
+            raise ProblemError(f"symmetry_tol_pct must lie in [0, {self.symmetry_verdict_pct:g})"
+                               f" %, got {self.symmetry_tol_pct}")
+
+    def symmetric(self, length_pct: float, time_pct: float) -> bool:
+        """Both asymmetries (%) below the verdict's ``symmetry_verdict_pct``."""
+        return bool(abs(length_pct) < self.symmetry_verdict_pct
+                    and abs(time_pct) < self.symmetry_verdict_pct)
+
+    def verified(self, fp, report) -> bool:
+        """The verdict on a stride fixed point ``fp`` with its :func:`stride_report`: converged,
+        valid, stride radius <= ``max_stride_radius``, symmetric."""
+        return bool(fp.converged and fp.valid and fp.spectral_radius <= self.max_stride_radius
+                    and report is not None
+                    and self.symmetric(report["step_length_asymmetry_pct"],
+                                       report["step_time_asymmetry_pct"]))
 
 
 @dataclass
@@ -431,14 +461,12 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     ``free`` its compliance keys to design, ``log`` one line per NLP solve (None: quiet).
     ``reached``: every homotopy step solved and the
     final answer re-simulates as a stable (stride radius <= ``max_stride_radius``), valid
-    gait with both asymmetries below 1 %."""
+    gait with both asymmetries below ``symmetry_verdict_pct``."""
     from pdw_casadi.nlp.shooting import ShootingNLP
 
     t0 = time.perf_counter()
     opts = options or DesignNLPOptions()
-    if not 0.0 <= opts.symmetry_tol_pct < 1.0:  # the verdict asks for below 1 %
-        raise ProblemError(f"symmetry_tol_pct must lie in [0, 1) %, got "
-                           f"{opts.symmetry_tol_pct}")
+    opts.check_symmetry_tol()
     log = log or (lambda msg: None)
     start, done0 = problem, 0.0
     if problem.asymmetric:  # continue an earlier design (its own TOML)
@@ -459,7 +487,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                    for k in opts.mass_distribution}
     shared = ("slope",) if opts.free_slope else ()
     if x0 is None:
-        fp0 = find_stride_fixed_point(start, tol=1e-10)
+        fp0 = find_stride_fixed_point(start, tol=FIXED_POINT_TOL)
         if not fp0.converged:
             raise ProblemError(f"{start.name}: no periodic gait near its initial state")
         x0 = fp0.state
@@ -489,7 +517,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         if opts.diagnose:
             _log_diagnosis(solver, out, log)
         u = nlp.unpack(out["w"])
-        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=1e-10,
+        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=FIXED_POINT_TOL,
                                      fallback=False, smap=nlp.stride_map)
         report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
             if fp.converged else None
@@ -499,10 +527,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             report["step_length_asymmetry_pct"] if report else math.nan,
             report["step_time_asymmetry_pct"] if report else math.nan,
             fp.valid if fp.converged else None, solver.binding(out, top=20)))
-        verified = (fp.converged and fp.valid
-                    and fp.spectral_radius <= opts.max_stride_radius
-                    and abs(solves[-1].step_length_asymmetry_pct) < 1.0
-                    and abs(solves[-1].step_time_asymmetry_pct) < 1.0)
+        verified = opts.verified(fp, report)
         good = verified and (out["success"] or opts.accept_verified)
         solves[-1].accepted = good
         log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
@@ -526,16 +551,13 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     designed = with_physical_parameters(final, theta).replace(
         name=f"{problem.name}_prosthesis",
         initial_state=dict(zip(problem.initial_state, x, strict=True)))
-    smap = StrideMap(designed)
-    fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=1e-10, fallback=False,
+    smap = stride_map(designed)
+    fp = find_stride_fixed_point(designed, x0=x, theta=theta, tol=FIXED_POINT_TOL, fallback=False,
                                  smap=smap)
     report = stride_report(smap, fp.state, fp.parameters) if fp.converged else None
     comp = {k: float(theta[names.index(f"{side}.{k}")]) for k in free}
     mass = {k: float(theta[names.index(f"{side}.{k}")]) for k in opts.mass_distribution}
     sound_comp = {k: float(theta[names.index(f"{other}.{k}")]) for k in opts.free_sound}
-    good = (ok and fp.converged and fp.valid
-            and fp.spectral_radius <= opts.max_stride_radius
-            and abs(report["step_length_asymmetry_pct"]) < 1.0
-            and abs(report["step_time_asymmetry_pct"]) < 1.0)
+    good = ok and opts.verified(fp, report)
     return ProsthesisResult(designed, fp, report, comp, path, bool(good),
                             time.perf_counter() - t0, solves, mass, sound_comp)

@@ -60,6 +60,10 @@ _MASSES = ("m_h", "m_t", "m_s", "m_f")
 _INERTIAS = ("J_t", "J_s", "J_f")
 _RATES = ("dq1", "dq2", "dq3")
 #: compliance values adapted on the way to a subject's body (the angles stay)
+#: the largest spectral radius of a subject's body gait (the stable bound of pdw-scale and
+#: of a cohort's subject bodies; a fit's own accepted radius is FitOptions.max_radius)
+BODY_MAX_RADIUS = 0.9
+
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
 
 
@@ -378,7 +382,7 @@ class StableSubject:
                 "continuation_s": self.continuation_s, "stabilise_s": self.stabilise_s}
 
 
-def nearest_stable_gait(problem: Problem, max_radius: float = 0.9, options=None):
+def nearest_stable_gait(problem: Problem, max_radius: float = BODY_MAX_RADIUS, options=None):
     """The stable (rho <= ``max_radius``), valid gait of ``problem``'s walker whose knee and
     hip curves are closest (R^2) to those of its gait through its initial state: the fit
     (:func:`~pdw_casadi.fit.fit_gait`, its stability row) with the walker's own curves as
@@ -393,12 +397,13 @@ def nearest_stable_gait(problem: Problem, max_radius: float = 0.9, options=None)
     target = own_curves(problem, fp.state, fp.parameters)
     if target is None:
         raise ProblemError(f"{problem.name}: its gait's step fails")
-    opts = options or FitOptions(max_radius=max_radius, atlas="", verbose=False)
+    opts = options or FitOptions(max_radius=max_radius, atlas="", verbose=False,
+                                 knee_floor=None)
     return fit_gait(problem, target, opts, log=lambda m: None).best
 
 
 def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
-                          reference: Problem | None = None, max_radius: float = 0.9,
+                          reference: Problem | None = None, max_radius: float = BODY_MAX_RADIUS,
                           log=None) -> StableSubject:
     """The reference walker on a subject's de Leva body with a stable, valid gait.
 
