@@ -282,6 +282,29 @@ def test_poincare_jacobian_matches_finite_differences(toes):
     assert np.abs(J - fd).max() < 1e-5 * max(1.0, np.abs(J).max())
 
 
+def test_shooting_nlp_closes_through_the_toe_phases(toes):
+    """The shooting NLP at the shipped gait has the simulator's segment chain (the toes
+    rolling onto the tip, the stop's impact on the tip, toe off into the held swing) and its
+    own integrator closes the step: every equality row to 1e-6."""
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+    from pdw_casadi.nlp.shooting import ShootingNLP
+
+    fp = find_fixed_point(toes, fallback=False)
+    assert fp.converged
+    nlp = ShootingNLP(toes, fp.state, fp.parameters, free=tuple(toes.compliance_names))
+    chain = [(s.phase, nlp.hs.event_list[s.phase][s.event].name, s.transition)
+             for s in nlp.specs if s.transition is not None]
+    assert chain == [("I", "toes2_cop_at_tip", "toes_roll"),
+                     ("I_tip", "stop2_on_tip", "toes_stop_tip"),
+                     ("I_stop", "toe_off", "toe_off_stop"),
+                     ("II_stop", "heel_strike", "heel_strike"),
+                     ("III", "foot_strike", "foot_strike")]
+    equality = {n for n, lo, hi in zip(nlp.g_names, nlp.lbg, nlp.ubg, strict=True) if lo == hi}
+    assert {"periodicity", "impact[toes_stop_tip]"} <= equality
+    worst = max((v for n, v in nlp.violations(nlp.w0) if n in equality), default=0.0)
+    assert worst < 1e-6
+
+
 # -- the locked MTP joint is the flat foot --------------------------------------------------
 def test_locked_toes_build_the_ankle_walker():
     """With the MTP joint locked the toe foot (two bodies in line) gives the ankle walker's
