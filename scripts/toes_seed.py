@@ -91,6 +91,10 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=200, help="compliance samples")
     ap.add_argument("--seed", type=int, default=0, help="random seed")
     ap.add_argument("--newton", type=int, default=20, help="Newton iterations at most")
+    ap.add_argument("--range", nargs=3, action="append", default=[],
+                    metavar=("KEY", "LO", "HI"),
+                    help="sample only the keys given so (repeatable), the others at the "
+                         "problem's values")
     ap.add_argument("--continue", dest="cont", nargs=3, metavar=("KEY", "TO", "NUM"),
                     help="instead: continue the problem's fixed point in compliance KEY up "
                          "to TO in NUM steps")
@@ -106,10 +110,12 @@ def main(argv=None) -> int:
         return 0
     rng = np.random.default_rng(args.seed)
     bounds = pb.compliance_bounds
+    ranges = ({k: (float(lo), float(hi)) for k, lo, hi in args.range} if args.range
+              else RANGES)
     ends, found, all_ends = collections.Counter(), [], collections.Counter()
     for k in range(args.samples):
         comp = {}
-        for key, (lo, hi) in RANGES.items():
+        for key, (lo, hi) in ranges.items():
             blo, bhi = bounds.get(key, (lo, hi))
             comp[key] = float(rng.uniform(max(lo, blo), min(hi, bhi)))
         q = pb.replace(compliance=comp)
