@@ -266,6 +266,7 @@ def test_timing_from_the_contacts():
         100 * (T + d["I"] + d["I_tip"] + d["III"]) / (2 * T), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_poincare_jacobian_matches_finite_differences(toes):
     """The exact-AD Jacobian of the step map (through toe off, the toes' stop impact, heel
     strike, foot strike and the swap of the toe coordinates) matches central finite
@@ -282,6 +283,7 @@ def test_poincare_jacobian_matches_finite_differences(toes):
     assert np.abs(J - fd).max() < 1e-5 * max(1.0, np.abs(J).max())
 
 
+@pytest.mark.slow
 def test_shooting_nlp_closes_through_the_toe_phases(toes):
     """The shooting NLP at the shipped gait has the simulator's segment chain (the toes
     rolling onto the tip, the stop's impact on the tip, toe off into the held swing) and its
