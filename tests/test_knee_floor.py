@@ -27,6 +27,9 @@ def test_floor_values_and_refusals():
     assert knee_floor(pb, human, FitOptions(knee_floor=None)) is None
     with pytest.raises(ValueError, match="knee_floor"):
         knee_floor(pb, human, FitOptions(knee_floor="table3"))
+    # a walker without compliance fits its slope only: a floor would pin it to its start
+    kneed = load_problem("kneed_walker")
+    assert knee_floor(kneed, human, FitOptions(free_slope=True)) is None
 
 
 @pytest.mark.slow  # two fits of about 25 iterations

@@ -111,8 +111,11 @@ class StepFit:
 
 def knee_floor(problem, human, opts: FitOptions) -> float | None:
     """The knee R^2 floor of :attr:`FitOptions.knee_floor` as a number (None: no floor,
-    or "reference" and the problem's own compliance has no gait or no knee curve)."""
+    or "reference" and the problem's own compliance has no gait or no knee curve; or no
+    compliance value is free: the slope alone would be pinned to the start's knee)."""
     if opts.knee_floor is None or "knee" not in opts.targets():
+        return None
+    if not (opts.free or problem.compliance_names):
         return None
     if opts.knee_floor == "reference":
         gait = own_gait(problem)  # the curves of reference_gait, computed once per process

@@ -49,7 +49,8 @@ class FitOptions:
     iterate_radius_slack: float | None = 0.01
     #: a constraint knee R^2 >= floor: "reference" (the R^2 of the problem's own compliance
     #: on the same curves, when it has a gait), a number, or None (no floor); the sum of
-    #: 1 - R^2 alone may trade knee for hip below the problem file's own knee
+    #: 1 - R^2 alone may trade knee for hip below the problem file's own knee. Only with
+    #: compliance values free (a slope-only fit has nothing else to hold the knee with)
     #: (docs/results/fit.md)
     knee_floor: str | float | None = "reference"
     multistart: int = 1
