@@ -114,6 +114,8 @@ class Transition:
     #: validity margins among the checks (name -> spec); None: by the naming rule of
     #: :mod:`pdw_casadi.model.margins`
     margins: dict[str, Margin] | None = None
+    #: the contact set the impact closes (None: no impact)
+    contact: ContactSet | None = None
 
 
 def make_transition(system: PlanarSystem, name: str, source: str, target: str,
@@ -122,7 +124,7 @@ def make_transition(system: PlanarSystem, name: str, source: str, target: str,
     if impact is None:
         return Transition(name, source, target, system.qd, ca.SX(0, 1), **kw)
     qd_plus, impulse = system.impact(impact)
-    return Transition(name, source, target, qd_plus, impulse, **kw)
+    return Transition(name, source, target, qd_plus, impulse, contact=impact, **kw)
 
 
 @dataclass

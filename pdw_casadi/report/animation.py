@@ -20,6 +20,8 @@ from matplotlib.animation import FuncAnimation, PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from pdw_casadi.report.plots import FOOT_POINTS
+
 #: joints drawn as open circles (when the walker has them)
 JOINTS = ("knee1", "knee2", "ankle1", "ankle2")
 
@@ -93,7 +95,7 @@ def animate_walk(hs, result, p, path, fps: float = 25.0, title: str | None = Non
     ax.plot(xs, ground, color="k", lw=1.2)
     segs = []
     for a, b in frames.links:
-        foot = a.startswith(("toe", "heel")) and b.startswith(("toe", "heel"))
+        foot = a.startswith(FOOT_POINTS) and b.startswith(FOOT_POINTS)
         (line,) = ax.plot([], [], color="tab:blue", lw=4.0 if foot else 2.2,
                           solid_capstyle="round")
         segs.append((line, a, b))

@@ -31,6 +31,8 @@ __all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_fit", "plo
            "plot_stick", "plot_sweep", "snapshot_rows"]
 
 LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
+#: name prefixes of a foot's drawn points: a link between two of them is drawn as the sole
+FOOT_POINTS = ("toe", "heel", "mtp")
 JOINT_LABELS = {"knee": "knee flexion [deg]", "hip": "hip: thigh from slope normal [deg]"}
 
 
@@ -196,7 +198,7 @@ def snapshot_rows(trajectory: pd.DataFrame, step: int | None = None, n: int = 8)
 
 def _draw_walker(ax, pts: dict[str, np.ndarray], links, color, lw=1.6, alpha=1.0) -> None:
     for a, b in links:
-        foot = a.startswith(("toe", "heel")) and b.startswith(("toe", "heel"))
+        foot = a.startswith(FOOT_POINTS) and b.startswith(FOOT_POINTS)
         ax.plot([pts[a][0], pts[b][0]], [pts[a][1], pts[b][1]], color=color,
                 lw=lw * (1.8 if foot else 1.0), alpha=alpha, solid_capstyle="round")
     for name in ("knee1", "knee2", "ankle1", "ankle2"):

@@ -10,6 +10,6 @@ A new foot is a new module here (or anywhere: a test file may define one) implem
 
 from __future__ import annotations
 
-from pdw_casadi.model.feet.base import FlatReading, Foot, FootLeg, Ground, Pivot, Stage
+from pdw_casadi.model.feet.base import FlatReading, Foot, FootLeg, Ground, Hold, Pivot, Stage
 
-__all__ = ["FlatReading", "Foot", "FootLeg", "Ground", "Pivot", "Stage"]
+__all__ = ["FlatReading", "Foot", "FootLeg", "Ground", "Hold", "Pivot", "Stage"]

@@ -24,6 +24,7 @@ forces in N, impulses in N s, lengths in m, angles in rad.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -49,16 +50,48 @@ class Ground:
 
 @dataclass
 class Pivot:
-    """A point-like contact of one foot end (toe or heel): two holonomic rows whose
-    multipliers are the contact force's world x, y components (N), so its normal force is
-    lambda . n. ``extras``: further outputs of the contact (e.g. the rolling angle);
-    ``events``: failures of the contact's own assumption (beyond its normal force reaching
-    zero, which the walker adds)."""
+    """A contact of one foot end (toe or heel): holonomic rows whose first two multipliers
+    are the contact force's world x, y components (N), so its normal force is lambda . n.
+    ``extras``: further outputs of the contact (e.g. the rolling angle); ``events``: failures
+    of the contact's own assumption (beyond its normal force reaching zero, which the walker
+    adds). A contact with more than two rows (a segment of the foot held flat: the toes)
+    reads its further multipliers with ``reading(lam)`` (``lam``: all of its multipliers,
+    in the order of ``rows``), which gives its further outputs and events."""
 
     tag: str
     rows: ca.SX
-    labels: tuple[str, str]
+    labels: tuple[str, ...]
     extras: dict[str, ca.SX] = field(default_factory=dict)
+    events: list[Event] = field(default_factory=list)
+    reading: Callable[[ca.SX], FlatReading] | None = None
+
+    def read(self, lam) -> FlatReading:
+        """Outputs and events of the contact from its multipliers (none without
+        ``reading``)."""
+        return self.reading(lam) if self.reading is not None else FlatReading({}, [])
+
+
+@dataclass
+class Hold:
+    """Rows the swing foot closes in single support and holds until it lands flat (a joint
+    of the foot reaching its stop: the toes coming back in line with the rear foot).
+
+    ``guard``: the event of phase II at which they close (an impact, transition
+    ``transition``, into the single-support phase ``phase``: phase II with the rows held);
+    the walker adds the rows to every later contact of the step until foot strike (its
+    stages, phase III, the heel-strike impacts) and reads them with ``reading(lam)`` (their
+    multipliers: outputs and the events of their release). A heel strike or a stage guard
+    reached before they close breaks the gait pattern (a failure). ``description``: the
+    held phase for the figures."""
+
+    phase: str
+    transition: str
+    rows: ca.SX
+    labels: tuple[str, ...]
+    guard: Event
+    reading: Callable[[ca.SX], FlatReading]
+    description: str = ""
+    #: failures of the free swing in phase II before the rows close
     events: list[Event] = field(default_factory=list)
 
 
@@ -80,22 +113,33 @@ class Stage:
     heel's strike through the impact transition ``heel_strike`` (a name beginning with
     "heel_strike": extensions act at every heel strike by it); ``events``: its own
     failures (besides the pivot's normal force reaching zero); ``description``: a few words
-    for the figures; ``contacts``: what each leg touches (the gait timing)."""
+    for the figures; ``contacts``: what each leg touches (the gait timing).
+
+    A double-support stage after phase I (:meth:`Foot.trailing_stages`) has the trailing
+    foot on ``pivot`` (the stance foot flat) and is left at toe off, the pivot's normal
+    force reaching zero, through the smooth transition ``toe_off`` (a name beginning with
+    "toe_off": extensions act at every toe off by it) into phase II."""
 
     name: str
     pivot: Pivot
     entry_guard: str
     entry: str
-    heel_strike: str
+    heel_strike: str = ""
     events: list[Event] = field(default_factory=list)
     description: str = ""
+    toe_off: str = ""
+    #: a double-support stage entered through the impact that closes the swing foot's
+    #: :class:`Hold` (its rows added to the stage's contact), left at toe off into the held
+    #: single-support phase
+    closes_hold: bool = False
 
 
 class FootLeg(ABC):
     """One leg's foot, as attached by :meth:`Foot.attach` (subclasses fill in the model).
 
     ``leg``: 1 (the stance role of the step) or 2 (the swing role); ``angle``: the foot's
-    absolute angle (rad, SX; the ankle joint acts between it and the shank); ``ankle``:
+    absolute angle (rad, SX; the ankle joint acts between it and the shank; for a foot of
+    several segments, the segment the ankle joint belongs to); ``ankle``:
     the ankle point (m); ``bodies``: its rigid bodies (after the leg chain's, in eq. (1)
     order); ``points`` / ``links``: named points and the links between them for drawing,
     listed outward from the ground for leg 1 and from the ankle for leg 2.
@@ -148,11 +192,33 @@ class FootLeg(ABC):
         its toe contact with the knee at ``knee_height`` (m) above the ground: the section
         places the trailing leg with it."""
 
+    def section_extra(self) -> list:
+        """Values (rad, m; SX in the slope) of the foot's extra coordinates
+        (:attr:`Foot.extra_coordinates`) at the Poincare section: leg 1 flat on the ground,
+        leg 2 resting on its toe contact (their rates follow from that contact at rest).
+        None by default."""
+        return []
+
+    def elements(self) -> list:
+        """The foot's own joint elements
+        (:class:`~pdw_casadi.model.mechanics.torques.JointTorque`, e.g. a spring-damper
+        between its segments); none by default."""
+        return []
+
+    def swing_hold(self) -> Hold | None:
+        """Rows this leg closes and holds in swing (:class:`Hold`; leg 2); None by
+        default."""
+        return None
+
 
 class Foot(ABC):
     """A foot design: its problem-file keys, its faces and how it attaches to a leg.
 
     ``anthropometry_keys``: anthropometry beyond the 6-link walker's own (per leg);
+    ``extra_coordinates``: generalised coordinates the foot adds per leg (names without the
+    leg index: ``qtoe`` gives ``qtoe1``, ``qtoe2``), appended after the chain's eight, leg
+    1's then leg 2's, swapped with the legs at foot strike; :meth:`attach` then gets this
+    leg's as ``extra``;
     ``compliance_keys`` / ``nonnegative_compliance``: compliance values it reads (per leg,
     after the walker's and an extension's); ``phase_descriptions``, ``phase_contacts``,
     ``instant_labels``: the faces of its walker's phases and transitions
@@ -161,6 +227,7 @@ class Foot(ABC):
 
     name: str = "foot"
     anthropometry_keys: tuple[str, ...] = ()
+    extra_coordinates: tuple[str, ...] = ()
     compliance_keys: tuple[str, ...] = ()
     nonnegative_compliance: tuple[str, ...] = ()
     phase_descriptions: dict[str, str] = {}
@@ -176,8 +243,15 @@ class Foot(ABC):
         """The foot on leg ``leg`` at absolute angle ``angle`` with the leg's anthropometry
         ``a`` and compliance ``c`` (numbers or SX): the stance leg's foot from its ``root``
         (the chain's ground anchor, the generalised coordinates x_t1, y_t1), the swing
-        leg's from its ``ankle``."""
+        leg's from its ``ankle``; a foot with :attr:`extra_coordinates` also gets this
+        leg's (``extra=``, SX vector)."""
 
     def stages(self, stance: FootLeg, swing: FootLeg, ground: Ground) -> list[Stage]:
         """Single-support stages after the flat stance (phase II); none by default."""
+        return []
+
+    def trailing_stages(self, stance: FootLeg, swing: FootLeg, ground: Ground
+                        ) -> list[Stage]:
+        """Double-support stages after phase I, the trailing (``swing``) foot's contact
+        changing before toe off (:class:`Stage`); none by default."""
         return []

@@ -17,6 +17,7 @@ from . import (  # noqa: F401 (registers)
     humanlike_6link_ankle,
     humanlike_6link_arc,
     humanlike_6link_heeloff,
+    humanlike_toes,
     point_foot,
 )
 

@@ -19,12 +19,13 @@ family of this chain with a given foot and extension.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import casadi as ca
 
 from pdw_casadi.engine.errors import ProblemError
-from pdw_casadi.model.feet.base import Foot, Ground
+from pdw_casadi.model.feet.base import FlatReading, Foot, Ground
 from pdw_casadi.model.feet.flat import FLAT
 from pdw_casadi.model.hybrid import (
     FAILURE,
@@ -34,7 +35,7 @@ from pdw_casadi.model.hybrid import (
     make_phase,
     make_transition,
 )
-from pdw_casadi.model.margins import IMPULSE
+from pdw_casadi.model.margins import IMPULSE, output_margin
 from pdw_casadi.model.mechanics.planar import ContactSet, PlanarSystem
 from pdw_casadi.model.mechanics.torques import total_torque
 from pdw_casadi.model.sixlink.chain import ANTHROPOMETRY_KEYS, ankle_elements, leg_chain
@@ -47,7 +48,7 @@ from pdw_casadi.model.sixlink.knees import (
     knee_elements,
     knee_events,
 )
-from pdw_casadi.model.sixlink.section import STATE_KEYS, SWAP, section_maps
+from pdw_casadi.model.sixlink.section import STATE_KEYS, SWAP, section_maps, swap
 from pdw_casadi.model.walkers.registry import register
 
 COMPLIANCE_KEYS = ("k_ankle", "c_ankle", *KNEE_COMPLIANCE)
@@ -161,9 +162,13 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     """The model from leg 1's (stance role) and leg 2's (swing role) anthropometry ``a1``,
     ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``); ``ext``,
     ``foot``: see :func:`build` (each part reads the values of the leg it belongs to)."""
-    q = ca.SX.sym("q", 8)
-    qd = ca.SX.sym("qd", 8)
+    ne = len(foot.extra_coordinates)
+    q = ca.SX.sym("q", 8 + 2 * ne)
+    qd = ca.SX.sym("qd", 8 + 2 * ne)
     q1, q2, q3, q4, qf1, qf2, xt, yt = (q[i] for i in range(8))
+    # a foot's extra coordinates (leg 1's, then leg 2's) are passed to it on attach
+    extra1 = {"extra": q[8:8 + ne]} if ne else {}
+    extra2 = {"extra": q[8 + ne:]} if ne else {}
     mode_keys = MODE_KEYS + (ext.mode_keys if ext else ())
     m = ca.SX.sym("m", len(mode_keys))
     md = {k: m[i] for i, k in enumerate(mode_keys)}
@@ -173,9 +178,9 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
 
     # the chain hangs from the stance foot's ground anchor (x_t1, y_t1); the swing foot
     # hangs from the chain's swing ankle
-    foot1 = foot.attach(1, qf1, a1, c1, ground, root=ca.vertcat(xt, yt))
+    foot1 = foot.attach(1, qf1, a1, c1, ground, root=ca.vertcat(xt, yt), **extra1)
     chain = leg_chain(q1, q2, q3, q4, foot1.ankle, a1, a2, m_h)
-    foot2 = foot.attach(2, qf2, a2, c2, ground, ankle=chain.ankle2)
+    foot2 = foot.attach(2, qf2, a2, c2, ground, ankle=chain.ankle2, **extra2)
     points = {**foot1.points, "ankle1": foot1.ankle, "knee1": chain.knee1, "hip": chain.hip,
               "knee2": chain.knee2, "ankle2": chain.ankle2, **foot2.points}
     links = [*foot1.links, ("ankle1", "knee1"), ("knee1", "hip"), ("hip", "knee2"),
@@ -188,6 +193,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
                 *knee_elements(md, q1, q2, q3, q4, c1, c2)]
     if ext:
         elements += ext.elements(c1, c2, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
+    elements += [*foot1.elements(), *foot2.elements()]
     F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
     F_q = sysm.F_gravity + sysm.F_velocity + F_torque
 
@@ -197,12 +203,17 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     toe2 = foot2.pivot("toe")
     toe1 = foot1.pivot("toe", arm_first=True)
     heel2 = foot2.pivot("heel")
+    k1 = toe1.rows.shape[0]
     flat1_rows, flat1_labels = foot1.flat_rows()
     flat2_rows, flat2_labels = foot2.flat_rows()
     contact_I = ContactSet("I", ca.vertcat(toe2.rows, flat1_rows), toe2.labels + flat1_labels)
     contact_II = ContactSet("II", flat1_rows, flat1_labels)
-    contact_III = ContactSet("III", ca.vertcat(toe1.rows, heel2.rows),
-                             toe1.labels + heel2.labels)
+    # rows the swing foot closes in single support and holds until it lands (a stop of
+    # one of its joints), in every later contact of the step
+    hold = foot2.swing_hold()
+    hold_rows, hold_labels = (hold.rows, hold.labels) if hold else (ca.SX(0, 1), ())
+    contact_III = ContactSet("III", ca.vertcat(toe1.rows, heel2.rows, hold_rows),
+                             toe1.labels + heel2.labels + hold_labels)
     contact_foot_strike = ContactSet("foot_strike", ca.vertcat(toe1.rows, flat2_rows),
                                      toe1.labels + flat2_labels)
 
@@ -222,14 +233,55 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     k = toe2.rows.shape[0]
     N_toe2 = ca.dot(lam[0:2], n)
     flat = foot1.flat_reading(lam[k:], single_support=False)
+    toe2_read = _releasing(toe2.read(lam[:k]))
     # the trailing toe's force is the releasing contact (it is the guard, zero at toe-off),
     # so it is reported but is not a validity margin
     ph1.outputs = {**flat.outputs, f"release_N_{toe2.tag}": N_toe2,
-                   f"F_{toe2.tag}_x": lam[0], f"F_{toe2.tag}_y": lam[1], **toe2.extras}
+                   f"F_{toe2.tag}_x": lam[0], f"F_{toe2.tag}_y": lam[1], **toe2.extras,
+                   **toe2_read.outputs}
     ph1.events = [
         Event("toe_off", N_toe2, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
-        *flat.events, *toe2.events, *common_events,
+        *flat.events, *toe2.events, *toe2_read.events, *common_events,
     ]
+    # the foot's double-support stages after I (the trailing foot's contact changing),
+    # each left at toe off into II or entered by the next; a stage that closes the swing
+    # foot's hold is entered through its impact and left into the held phase
+    trailing_transitions = []
+    trailing_phases = []
+    previous = "I"
+    for st in foot.trailing_stages(foot1, foot2, ground):
+        piv = st.pivot
+        kp, nf = piv.rows.shape[0], flat1_rows.shape[0]
+        extra_rows, extra_labels = (hold_rows, hold_labels) if st.closes_hold else (
+            ca.SX(0, 1), ())
+        contact = ContactSet(st.name, ca.vertcat(piv.rows, flat1_rows, extra_rows),
+                             piv.labels + flat1_labels + extra_labels)
+        ph = make_phase(sysm, F_q, st.name, contact)
+        N = ca.dot(ph.lam[0:2], n)
+        flat = foot1.flat_reading(ph.lam[kp:kp + nf], single_support=False)
+        piv_read = _releasing(piv.read(ph.lam[:kp]))
+        held = (hold.reading(ph.lam[kp + nf:]) if st.closes_hold
+                else _NOTHING)
+        ph.outputs = {**flat.outputs, f"release_N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
+                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, **piv_read.outputs,
+                      **held.outputs}
+        ph.events = [
+            Event("toe_off", N, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
+            *flat.events, *st.events, *piv.events, *piv_read.events, *held.events,
+            *common_events,
+        ]
+        trailing_phases.append(ph)
+        entry = make_transition(sysm, st.entry, previous, st.name,
+                                contact if st.closes_hold else None, guard=st.entry_guard)
+        if st.closes_hold:
+            entry.checks = {f"impulse_{hold.labels[j]}": entry.impulse[kp + nf + j]
+                            for j in range(len(hold.labels))}
+        trailing_transitions += [
+            entry, make_transition(sysm, st.toe_off, st.name,
+                                   hold.phase if st.closes_hold else "II", None,
+                                   guard="toe_off", mode_after=arm_swing_knee)]
+        previous = st.name
+
     # Phase II: single stance on the flat foot, swing leg free
     ph2 = make_phase(sysm, F_q, "II", contact_II)
     flat = foot1.flat_reading(ph2.lam, single_support=True)
@@ -242,23 +294,51 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     scuff_event = Event("toe_scuff", toe2_low, -1, FAILURE, "swing toe hits the ground",
                         arm_above=1e-4)
     ph2.events = [heel_strike_event, scuff_event, *flat.events, *common_events]
-    phases = [ph1, ph2]
+    phases = [ph1, *trailing_phases, ph2]
+
+    # the swing foot's hold closes in phase II (an impact) into the phase held, which is
+    # phase II with the hold's rows; the single support after it is that phase's
+    hold_transitions = []
+    previous = "II"
+    if hold:
+        ph2.events += [hold.guard, *hold.events]
+        contact_held = ContactSet(hold.phase, ca.vertcat(flat1_rows, hold_rows),
+                                  flat1_labels + hold_labels)
+        phh = make_phase(sysm, F_q, hold.phase, contact_held)
+        nf = flat1_rows.shape[0]
+        flat = foot1.flat_reading(phh.lam[:nf], single_support=True)
+        held = hold.reading(phh.lam[nf:])
+        phh.outputs = {**flat.outputs, "clearance_toe2": toe2_low, **held.outputs}
+        phh.events = [heel_strike_event, scuff_event, *flat.events, *held.events,
+                      *common_events]
+        phases.append(phh)
+        close = make_transition(sysm, hold.transition, "II", hold.phase, contact_held,
+                                guard=hold.guard.name)
+        close.checks = {f"impulse_{hold.labels[j]}": close.impulse[nf + j]
+                        for j in range(len(hold.labels))}
+        hold_transitions.append(close)
+        previous = hold.phase
+    first_single = previous
 
     # the foot's single-support stages after II (e.g. heel off onto the toe), each ending
     # at the swing heel's strike or in the next stage
     stages = foot.stages(foot1, foot2, ground)
     stage_transitions = []
-    previous = "II"
     for st in stages:
         piv = st.pivot
-        ph = make_phase(sysm, F_q, st.name, ContactSet(st.name, piv.rows, piv.labels))
+        kp = piv.rows.shape[0]
+        ph = make_phase(sysm, F_q, st.name, ContactSet(st.name, ca.vertcat(piv.rows, hold_rows),
+                                                       piv.labels + hold_labels))
         N = ca.dot(ph.lam[0:2], n)
+        piv_read = piv.read(ph.lam[:kp])
+        held = hold.reading(ph.lam[kp:]) if hold else piv.read(ca.SX(0, 1))
         ph.outputs = {f"N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
-                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, "clearance_toe2": toe2_low}
+                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, "clearance_toe2": toe2_low,
+                      **piv_read.outputs, **held.outputs}
         ph.events = [
             heel_strike_event, scuff_event,
             Event(f"{piv.tag}_lift", N, -1, FAILURE, "stance toe normal force reaches zero"),
-            *st.events, *piv.events, *common_events,
+            *st.events, *piv.events, *piv_read.events, *held.events, *common_events,
         ]
         phases.append(ph)
         # entering the stage is smooth (its contact already carries the load); the heel
@@ -268,7 +348,7 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         heel_st = make_transition(sysm, st.heel_strike, st.name, "III", contact_III,
                                   guard="heel_strike")
         heel_st.checks = {f"impulse_{toe1.tag}": ca.dot(heel_st.impulse[0:2], n),
-                          f"impulse_{heel2.tag}": ca.dot(heel_st.impulse[2:4], n)}
+                          f"impulse_{heel2.tag}": ca.dot(heel_st.impulse[k1:k1 + 2], n)}
         stage_transitions.append(heel_st)
         previous = st.name
 
@@ -276,47 +356,54 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     ph3 = make_phase(sysm, F_q, "III", contact_III)
     lam = ph3.lam
     N_toe1 = ca.dot(lam[0:2], n)
-    N_heel2 = ca.dot(lam[2:4], n)
+    N_heel2 = ca.dot(lam[k1:k1 + 2], n)
+    kh = k1 + heel2.rows.shape[0]
+    toe1_read = toe1.read(lam[:k1])
+    held = hold.reading(lam[kh:]) if hold else toe1.read(ca.SX(0, 1))
     ph3.outputs = {f"N_{toe1.tag}": N_toe1, f"N_{heel2.tag}": N_heel2,
                    f"F_{toe1.tag}_x": lam[0], f"F_{toe1.tag}_y": lam[1],
-                   f"F_{heel2.tag}_x": lam[2], f"F_{heel2.tag}_y": lam[3],
-                   **toe1.extras, **heel2.extras}
+                   f"F_{heel2.tag}_x": lam[k1], f"F_{heel2.tag}_y": lam[k1 + 1],
+                   **toe1.extras, **heel2.extras, **toe1_read.outputs, **held.outputs}
     ph3.events = [
         Event("foot_strike", foot2.flat_guard(), -1, GUARD,
               "leading foot rotates flat onto the ground"),
         Event(f"{toe1.tag}_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
         Event(f"{heel2.tag}_lift", N_heel2, -1, FAILURE,
               "leading heel normal force reaches zero"),
-        *toe1.events, *heel2.events, *common_events,
+        *toe1.events, *heel2.events, *toe1_read.events, *held.events, *common_events,
     ]
 
     # transitions: toe-off (no impact, arms the swing knee), heel strike, foot strike + swap
-    toe_off = make_transition(sysm, "toe_off", "I", "II", None, mode_after=arm_swing_knee)
-    heel = make_transition(sysm, "heel_strike", "II", "III", contact_III,
-                           guard="heel_strike" if stages else None)
+    toe_off = make_transition(sysm, "toe_off", "I", "II", None, mode_after=arm_swing_knee,
+                              guard="toe_off")
+    heel = make_transition(sysm, "heel_strike", first_single, "III", contact_III,
+                           guard="heel_strike")
     heel.checks = {
         f"impulse_{toe1.tag}": ca.dot(heel.impulse[0:2], n),
-        f"impulse_{heel2.tag}": ca.dot(heel.impulse[2:4], n),
+        f"impulse_{heel2.tag}": ca.dot(heel.impulse[k1:k1 + 2], n),
         "heel1_rise_speed": ca.dot(ca.jtimes(foot1.end_point("heel"), q, heel.qd_plus), n),
     }
     foot_strike = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike,
-                                  ends_step=True)
+                                  ends_step=True, guard="foot_strike")
     imp = foot_strike.impulse
     k = toe1.rows.shape[0]
     checks, margins = foot2.flat_impulse_checks(imp[k:])
     foot_strike.checks = {f"impulse_{toe1.tag}": ca.dot(imp[0:2], n), **checks}
     foot_strike.margins = {f"impulse_{toe1.tag}": IMPULSE, **margins}
-    q_new = ca.vertcat(*[q[i] for i in SWAP], 0, 0)
-    qd_new = ca.vertcat(*[qd[i] for i in SWAP], 0, 0)
+    order = swap(ne)
+    q_new = ca.vertcat(*[q[i] for i in order[:6]], 0, 0, *[q[i] for i in order[8:]])
+    qd_new = ca.vertcat(*[qd[i] for i in order[:6]], 0, 0, *[qd[i] for i in order[8:]])
     foot_strike.relabel = (q_new, qd_new)
     foot_strike.mode_after = after_foot_strike
-    transitions = [toe_off, heel, *stage_transitions, foot_strike]
+    transitions = [toe_off, *trailing_transitions, *hold_transitions, heel,
+                   *stage_transitions, foot_strike]
     if ext:
         for tr in transitions:
             tr.mode_after = ext.mode_rule(tr.name, tr.mode_after)
+    phases = _unfollowed_guards_fail([*phases, ph3], transitions)
 
     section_to_full, full_to_section = section_maps(q, chain.knee2, foot2, a2["l_s"],
-                                                    ground, p)
+                                                    ground, p, leading=foot1)
     toe1_point, heel1_point = foot1.end_point("toe"), foot1.end_point("heel")
     toe2_point, heel2_point = foot2.end_point("toe"), foot2.end_point("heel")
     common = {
@@ -333,12 +420,41 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         name=name, system=sysm, p=p, m=m, mode_keys=mode_keys,
         initial_mode={**INITIAL_MODE, **(ext.initial_mode if ext else {})},
         F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
-        phases=[*phases, ph3], transitions=transitions,
+        phases=phases, transitions=transitions,
         section_to_full=section_to_full, full_to_section=full_to_section,
         state_names=STATE_KEYS, parameter_names=tuple(parameter_names),
         step_length=ca.dot(toe2_point - toe1_point, t_slope), common_outputs=common,
-        points=points, links=links, ground_normal=n, q_names=Q_NAMES, heel_strike_phase="III",
+        points=points, links=links, ground_normal=n,
+        q_names=Q_NAMES + tuple(f"{e}{i}" for i in (1, 2) for e in foot.extra_coordinates),
+        heel_strike_phase="III",
     )
+
+
+#: the reading of no rows
+_NOTHING = FlatReading({}, [])
+
+
+def _releasing(reading):
+    """A trailing contact's reading with its validity margins renamed ``release_*``: the
+    contact is releasing (its normal force falls to zero at toe off, the guard), so they are
+    reported, not required (its failures still end the step)."""
+    outs = {(f"release_{k}" if output_margin(k) else k): v for k, v in reading.outputs.items()}
+    return dataclasses.replace(reading, outputs=outs)
+
+
+def _unfollowed_guards_fail(phases, transitions):
+    """The phases with every guard that no transition follows made a failure (a contact
+    change the walker has no phase for, e.g. the stance heel lifting before a swing foot's
+    hold has closed): the walker's gait pattern is broken there."""
+    followed = {(tr.source, tr.guard) for tr in transitions}
+    only = {tr.source for tr in transitions if tr.guard is None}
+    for ph in phases:
+        if ph.name in only:
+            continue
+        ph.events = [dataclasses.replace(e, name=f"{e.name}_in_{ph.name}", kind=FAILURE)
+                     if e.kind == GUARD and (ph.name, e.name) not in followed else e
+                     for e in ph.events]
+    return phases
 
 
 def register_six_link(name: str, description: str, foot: Foot = FLAT, ext=None,

@@ -76,7 +76,7 @@ class AnkleExtension:
             new = rule(md_) if rule else dict(md_)
             if isinstance(new, str):
                 return new
-            if name == "toe_off":  # the trailing toe leaves: its clutch releases
+            if name.startswith("toe_off"):  # the trailing toe leaves: its clutch releases
                 return {**new, "clutch2": 0.0}
             if name.startswith("heel_strike"):  # loading response begins (from any stance)
                 return {**new, "load2": 1.0}
