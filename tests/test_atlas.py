@@ -5,6 +5,7 @@ first."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pdw_casadi.fit import FitOptions
 from pdw_casadi.fit.starts import Start, load_atlas, rank_starts, select_starts
@@ -55,6 +56,7 @@ def test_rank_starts_is_by_score_alone_at_zero_tolerance_and_by_stability_alone_
     assert [s.label for s in rank_starts(starts, 0.01)] == ["s2", "s1", "s0", "s3"]
 
 
+@pytest.mark.slow  # four fits, two of them in fresh pool processes
 def test_multistart_gives_identical_results_in_process_and_in_a_pool(problem, tmp_path):
     """Two starts (the problem's own and an atlas entry at c_ankle -1 %, c_knee_flex -1 %),
     fitted in this process and on a 2-process pool: the same answers, bit for bit."""

@@ -78,7 +78,14 @@ def _fixed_point(problem):
     return res
 
 
-@pytest.fixture(scope="module", params=[pytest.param(c, marks=needs_opensim) for c in CASES])
+#: in the slow set: the rolling-foot walker's own compilation (its commands are slow too in
+#: tests/test_walkers_matrix.py); the default run keeps the three walkers of the export issue
+SLOW_CASES = {"humanlike_6link_arc"}
+
+
+@pytest.fixture(scope="module", params=[
+    pytest.param(c, marks=[needs_opensim, *([pytest.mark.slow] if c in SLOW_CASES else [])])
+    for c in CASES])
 def exported(request, tmp_path_factory):
     """(problem, fixed point, export, OpenSim's read-back with inverse dynamics at every
     sample) of one case."""
