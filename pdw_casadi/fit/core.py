@@ -74,7 +74,6 @@ class StepFit:
         headroom = max(opts.segment_headroom_s,
                        opts.timing_headroom_s if opts.timing_weight > 0 else 0.0)
         return ShootingNLP(self.problem, x, p, free=self.free, sample_stride=opts.sample_stride,
-                           margin_stride=opts.margin_stride,
                            hs=self.sim.hs, headroom_s=headroom)
 
     def solver(self, nlp) -> FitSolver:

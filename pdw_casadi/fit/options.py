@@ -67,10 +67,7 @@ class FitOptions:
     hessian: str = "limited-memory"
     rounds: int = 2
     consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
-    sample_stride: int = 2  # RK4 samples between checked event signs (and margins)
-    #: RK4 samples between checked validity margins (None: ``sample_stride``); a margin that
-    #: binds at the answer dips between checked samples (docs/results/fit.md)
-    margin_stride: int | None = None
+    sample_stride: int = 2  # RK4 samples between checked event signs and margins
     #: every segment may grow this much (s) beyond its starting duration plus one interval
     #: (its shooting intervals bound it; docs/results/fit-settings.md)
     segment_headroom_s: float = 0.0

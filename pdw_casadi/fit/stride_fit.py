@@ -191,7 +191,6 @@ class StrideFit:
     def nlp(self, x, theta):
         return ShootingNLP.stride(self.problem, x, theta, free=self.free,
                                   sample_stride=self.opts.sample_stride,
-                                  margin_stride=self.opts.margin_stride,
                                   headroom_s=self.opts.segment_headroom_s)
 
     def solver(self, nlp) -> FitSolver:

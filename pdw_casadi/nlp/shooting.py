@@ -119,7 +119,7 @@ class ShootingNLP:
     def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
                  sample_stride: int = 1, hs: HybridSystem | None = None,
                  transversality: float = 0.5, headroom_s: float = 0.0,
-                 step_perms=None, param_names=None, margin_stride: int | None = None):
+                 step_perms=None, param_names=None):
         self.problem = problem
         self.sim = Simulator(problem, hs)
         self.hs = hs = self.sim.hs
@@ -127,8 +127,6 @@ class ShootingNLP:
         self.h = self.sim.h
         self.h_max = H_MAX_FACTOR * self.h
         self.stride = sample_stride
-        #: RK4 samples between checked validity margins (None: ``sample_stride``)
-        self.margin_stride = sample_stride if margin_stride is None else margin_stride
         self.transversality = transversality
         self._gdot_cache: dict[str, ca.Function] = {}
         self.p0 = np.asarray(p0, float).ravel()
@@ -346,9 +344,6 @@ class ShootingNLP:
             if cols[-1] != Y.shape[1] - 1:
                 cols.append(Y.shape[1] - 1)
             inner = cols[:-1]
-            mcols = list(range(self.margin_stride - 1, Y.shape[1], self.margin_stride))
-            if mcols[-1] != Y.shape[1] - 1:
-                mcols.append(Y.shape[1] - 1)
             for i, sign in s.signs.items():
                 at = inner if i == s.event else cols
                 at = [c for c in at if c >= s.start.get(i, 0)]
@@ -366,14 +361,14 @@ class ShootingNLP:
             for j, name, spec in hs.phase_margins[s.phase]:
                 need = spec.minimum(v) + MARGIN_SLACK
                 if spec.active_after <= 0:
-                    add(ca.horzcat(y0[j], Y[j, mcols]), need, ca.inf, f"margin[{k}]:{name}")
+                    add(ca.horzcat(y0[j], Y[j, cols]), need, ca.inf, f"margin[{k}]:{name}")
                     continue
                 # a margin that counts late in its phase (a swing foot's clearance) is not
                 # demanded at the start node: the foot leaves the ground there (height 0 by
                 # the previous phase's contact), and a pinned row only degrades the KKT
                 key = (s.step, s.phase)
-                demand = spec.demand(ts[mcols] - phase_start[key], phase_len[key], need)
-                add(Y[j, mcols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
+                demand = spec.demand(ts[cols] - phase_start[key], phase_len[key], need)
+                add(Y[j, cols] - demand, 0, ca.inf, f"margin[{k}]:{name}")
             xe = X[:, -1]
             if s.transition is not None:
                 imp = hs.impact_expr(s.transition, xe, p)
