@@ -72,6 +72,7 @@ def asymmetric(base):
     return pb, smap, fp, nlp
 
 
+@pytest.mark.slow  # a further per-leg walker (0.01 % lighter leg) to compile
 def test_stride_stability_row_is_the_stride_map_jacobian(asymmetric):
     """At the stride NLP's starting gait (the simulator's fixed point, feasible to 1e-6),
     the row's chain over both steps is the stride map's exact-AD Jacobian dS/dx
@@ -90,6 +91,7 @@ def test_stride_stability_row_is_the_stride_map_jacobian(asymmetric):
     assert abs(row.value(nlp.w0) - bound) < 1e-4
 
 
+@pytest.mark.slow  # a further per-leg walker (0.01 % lighter leg) to compile
 def test_stride_stability_row_gradient_matches_finite_differences(asymmetric):
     """Off the orbit, the row's reverse-mode gradient over both steps (nodes, durations,
     both section states, the free parameters through both steps' role vectors) matches
