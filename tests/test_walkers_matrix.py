@@ -65,7 +65,7 @@ def test_simulate_with_animation(name, tmp_path, capsys):
     out = tmp_path / "sim"
     gif = out / "walk.gif"
     assert _main(simulate_main, ["--problem", name, "--steps", "3", "--animate", str(gif),
-                                 "--fps", "10", "--out", str(out)]) == 0, capsys.readouterr()
+                                 "--fps", "5", "--out", str(out)]) == 0, capsys.readouterr()
     for f in ("trajectory.csv", "events.csv", "summary.json"):
         assert (out / f).stat().st_size > 0
     for f in ("angles.png", "stick.png"):
@@ -157,6 +157,10 @@ FIT_TINY_FAILS = {
 
 
 def _fit_param(n):
+    if n == "humanlike_6link":
+        # the whole pdw-fit of this walker runs by default in tests/test_opensim.py
+        # (--export opensim) and the fit itself in tests/test_fit.py
+        return pytest.param(n, marks=pytest.mark.slow)
     if not n.startswith(ANKLE_WALKERS):
         return n
     marks = [pytest.mark.slow]  # the ankle walkers' fits take minutes
