@@ -118,3 +118,19 @@ def run(capsys, main, args):
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def model_functions(model, head=None) -> ca.Function:
+    """One SX function of (q, qd, p, m) with ``head`` (default: the generalised forces,
+    spring energy and step length), every phase's dynamics, multipliers, events and outputs
+    and every transition's post-impact velocities, impulses and checks: two models agree
+    when these agree."""
+    q, qd, p, m = model.system.q, model.system.qd, model.p, model.m
+    outs = list(head) if head is not None else [model.F_q, model.spring_energy,
+                                                 model.step_length]
+    for ph in model.phases:
+        outs += [ph.qdd, ph.lam, ca.vertcat(*[e.expr for e in ph.events]),
+                 ca.vertcat(*ph.outputs.values())]
+    for tr in model.transitions:
+        outs += [tr.qd_plus, tr.impulse, ca.vertcat(*tr.checks.values())]
+    return ca.Function("all", [q, qd, p, m], outs)

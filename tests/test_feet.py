@@ -20,6 +20,7 @@ import tomllib
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import model_functions
 
 from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.gait.fixed_point import find_fixed_point
@@ -70,19 +71,6 @@ def _problem(family):
     return problem_from_dict(raw, name=family)
 
 
-def _functions(model):
-    """One SX function of (q, qd, p, m) with every phase's dynamics, multipliers, events and
-    outputs and every transition's post-impact velocities, impulses and checks."""
-    q, qd, p, m = model.system.q, model.system.qd, model.p, model.m
-    outs = [model.F_q, model.spring_energy, model.step_length]
-    for ph in model.phases:
-        outs += [ph.qdd, ph.lam, ca.vertcat(*[e.expr for e in ph.events]),
-                 ca.vertcat(*ph.outputs.values())]
-    for tr in model.transitions:
-        outs += [tr.qd_plus, tr.impulse, ca.vertcat(*tr.checks.values())]
-    return ca.Function("all", [q, qd, p, m], outs)
-
-
 def _same_model(a, b, p, rng, trials=5):
     """The two models agree at random states (1e-12 relative): same structure and values."""
     assert [ph.name for ph in a.phases] == [ph.name for ph in b.phases]
@@ -90,7 +78,7 @@ def _same_model(a, b, p, rng, trials=5):
     for ph_a, ph_b in zip(a.phases, b.phases, strict=True):
         assert list(ph_a.outputs) == list(ph_b.outputs)
         assert [e.name for e in ph_a.events] == [e.name for e in ph_b.events]
-    fa, fb = _functions(a), _functions(b)
+    fa, fb = model_functions(a), model_functions(b)
     for _ in range(trials):
         q = rng.uniform(-0.6, 0.6, 8) + np.array([0, 0, 0, 0, 1.4, 1.4, 0, 0])
         qd = rng.uniform(-2, 2, 8)

@@ -11,6 +11,7 @@ import tomllib
 import casadi as ca
 import numpy as np
 import pytest
+from conftest import model_functions
 
 from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.engine.resources import bundled_dir
@@ -319,17 +320,7 @@ def test_locked_toes_build_the_ankle_walker():
     assert [ph.name for ph in a.phases] == [ph.name for ph in b.phases]
     assert [tr.name for tr in a.transitions] == [tr.name for tr in b.transitions]
 
-    def funcs(model):
-        q, qd, p, m = model.system.q, model.system.qd, model.p, model.m
-        outs = [model.system.M_q, model.F_q, model.spring_energy]
-        for ph in model.phases:
-            outs += [ph.qdd, ph.lam, ca.vertcat(*[e.expr for e in ph.events]),
-                     ca.vertcat(*ph.outputs.values())]
-        for tr in model.transitions:
-            outs += [tr.qd_plus, tr.impulse, ca.vertcat(*tr.checks.values())]
-        return ca.Function("all", [q, qd, p, m], outs)
-
-    fa, fb = funcs(a), funcs(b)
+    fa, fb = (model_functions(x, [x.system.M_q, x.F_q, x.spring_energy]) for x in (a, b))
     p = ref.parameter_vector()
     for _ in range(5):
         q = rng.uniform(-0.6, 0.6, 8) + np.array([0, 0, 0, 0, 1.4, 1.4, 0, 0])

@@ -98,7 +98,7 @@ def own_gait(problem) -> tuple[pd.DataFrame, float] | None:
     """The 101-point knee/hip/thigh curves (deg) and the spectral radius of the problem's own
     fixed point, or None when its own parameters have no gait (once per process for a
     problem of the same content: the start ranking and the knee floor both need it)."""
-    key = json.dumps(problem.to_dict(), sort_keys=True, default=str)
+    key = problem.content_key()
     if key not in _OWN_GAIT:
         fp = own_fixed_point(problem)
         curves = cycle_curves(Simulator(problem), fp.state, fp.parameters) \

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import json
 import os
 import sys
 import tempfile
@@ -219,7 +218,7 @@ def own_fixed_point(problem) -> FixedPointResult:
     """:func:`find_fixed_point` of ``problem`` from its own state and parameters, computed
     once per process for a problem of the same content (a copy is returned: callers may
     change it)."""
-    key = json.dumps(problem.to_dict(), sort_keys=True, default=str)
+    key = problem.content_key()
     if key not in _OWN:
         if len(_OWN) >= _OWN_SIZE:
             _OWN.pop(next(iter(_OWN)))

@@ -196,6 +196,10 @@ class Problem:
                 v = _freeze_legs(v)
             object.__setattr__(self, k, _frozen(v) if isinstance(v, dict) else v)
 
+    def content_key(self) -> str:
+        """A string equal for problems of equal content (per-process caches key by it)."""
+        return json.dumps(self.to_dict(), sort_keys=True, default=str)
+
     def to_dict(self) -> dict:
         return {
             "name": self.name, "family": self.family, "title": self.title, "g": self.g,
