@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 from conftest import full_states
 
-from pdw_casadi.engine.compile import Lazy, interpreted
+from pdw_casadi.engine.compile import HOT, Lazy, interpreted
 
 
 def test_native_call_matches_casadi(tmp_path, monkeypatch):
@@ -18,7 +18,7 @@ def test_native_call_matches_casadi(tmp_path, monkeypatch):
     fun = ca.Function("native_probe", [x, h, m],
                       [y, ca.jacobian(y, x), ca.horzcat(x, 2 * x)])
     assert not fun.sparsity_out(1).is_dense()
-    lazy = Lazy(fun, ("-O1",))
+    lazy = Lazy(fun, HOT)
     rng = np.random.default_rng(1)
     for _ in range(3):
         args = (rng.normal(size=3), float(rng.normal()), list(rng.normal(size=2)))

@@ -32,6 +32,16 @@ import numpy as np
 
 _LOCK = threading.Lock()
 
+#: gcc flags by what the generated code does (the one home of the optimisation levels).
+#: ``HOT``: code that a hot loop calls many times and that loops itself (a chunk of RK4
+#: steps, sensitivities through steps, shooting intervals); -Og keeps values in registers
+#: like -O1 but skips its costliest passes. ``PLAIN``: straight-line code called a few times
+#: per step (events, event location, impacts, outputs, Jacobians of the section); gcc's
+#: optimiser would cost several times the compile time for no measurable gain.
+#: docs/results/performance.md has the figures.
+HOT: tuple[str, ...] = ("-Og",)
+PLAIN: tuple[str, ...] = ("-O0",)
+
 
 def cache_dir() -> Path:
     return Path(os.environ.get("PDW_CACHE", Path.home() / ".cache" / "pdw_casadi"))
@@ -219,13 +229,13 @@ def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
     return so
 
 
-def compiled(fun, flags: tuple[str, ...] = ("-O1",)):
+def compiled(fun, flags: tuple[str, ...] = HOT):
     """``fun`` compiled to a cached shared library (or ``fun`` itself if no compiler).
 
     ``fun`` may be a list of functions: they go into one library, so that functions they
     share (a right-hand side and its Jacobian) are compiled once; a list is returned.
-    ``-O1`` pays off for functions that loop internally (a chunk of steps); for large
-    straight-line expressions gcc's optimiser costs minutes for little gain, use ``-O0``.
+    ``flags``: :data:`HOT` for functions that loop internally (a chunk of steps),
+    :data:`PLAIN` for straight-line expressions.
     """
     funs = list(fun) if isinstance(fun, list | tuple) else [fun]
     so = _library(funs, flags)
@@ -326,7 +336,7 @@ def native(funs: list, flags: tuple[str, ...]) -> list:
 class LazyGroup:
     """Functions compiled together into one library on the first call of any of them."""
 
-    def __init__(self, funs: dict, flags: tuple[str, ...] = ("-O0",)):
+    def __init__(self, funs: dict, flags: tuple[str, ...] = PLAIN):
         self.funs = funs
         self.flags = flags
         self._fast: dict | None = None
@@ -357,7 +367,7 @@ class Lazy:
     numpy arrays through :class:`Native` (for hot loops).
     """
 
-    def __init__(self, fun: ca.Function, flags: tuple[str, ...] = ("-O0",)):
+    def __init__(self, fun: ca.Function, flags: tuple[str, ...] = PLAIN):
         self.fun = fun
         self.flags = flags
         self._fast: ca.Function | None = None

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from pdw_casadi.engine.compile import Lazy, LazyGroup
+from pdw_casadi.engine.compile import HOT, Lazy, LazyGroup
 from pdw_casadi.engine.errors import PoincareError, ProblemError
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.gait.simulate import Segment, SimulationResult, Simulator, StepRecord
@@ -105,9 +105,8 @@ class _Sensitivities:
                 acc = step1.mapaccum(f"sens{k}_{name}", k) if k > 1 else step1
                 group[k] = ca.Function(
                     f"sensacc{k}_{name}", [Z, H, P, M], [acc(Z, H, P, M)[:, -1]])
-            # -O1: with the structured dynamics the group compiles in seconds, and runs
-            # about five times faster than at -O0
-            lazy = LazyGroup(group, ("-O1",))
+            # the Poincare Jacobian's hot loop
+            lazy = LazyGroup(group, HOT)
             self.partial[name] = lazy.np("partial")
             for k in _SENS_CHUNKS:
                 self.chunks[(name, k)] = lazy.np(k)

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import casadi as ca
 
-from pdw_casadi.engine.compile import Lazy
+from pdw_casadi.engine.compile import HOT, Lazy
 from pdw_casadi.engine.rk4 import rk4
 from pdw_casadi.model.margins import Margin, check_key, check_margin, output_margin, phase_key
 from pdw_casadi.model.mechanics.planar import ContactSet, PlanarSystem
@@ -267,14 +267,12 @@ class HybridSystem:
             # exact derivatives of the event functions (for the Poincare map)
             self.event_jac[ph.name] = ca.Function(
                 f"event_jac_{ph.name}", [x, p, m], [g, ca.jacobian(g, x), ca.jacobian(g, p)])
-            self.chunk[ph.name] = Lazy(self.chunk[ph.name], ("-O1",))
+            self.chunk[ph.name] = Lazy(self.chunk[ph.name], HOT)
             self.outputs[ph.name] = Lazy(self.outputs[ph.name])
             self.event_jac[ph.name] = Lazy(self.event_jac[ph.name])
-            # small now (structured dynamics): -O1 compiles in about a second each and
-            # halves the cost of the event location's Newton iterations
-            self.rhs[ph.name], self.step[ph.name] = rhs, Lazy(step, ("-O1",))
-            self.events[ph.name] = Lazy(events, ("-O1",))
-            self.locate[ph.name] = Lazy(locate, ("-O1",))
+            self.rhs[ph.name], self.step[ph.name] = rhs, Lazy(step)
+            self.events[ph.name] = Lazy(events)
+            self.locate[ph.name] = Lazy(locate)
             self.event_list[ph.name] = ph.events
 
         self.impact, self.impact_jac = {}, {}

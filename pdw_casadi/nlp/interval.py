@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 
 from pdw_casadi.engine.callback import NumericFunction
-from pdw_casadi.engine.compile import compiled, native
+from pdw_casadi.engine.compile import HOT, compiled, native
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem
 
@@ -80,7 +80,7 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
 
 def _compiled(hs: HybridSystem, phase: str, n_sub: int) -> NumericFunction:
     sym, jac = _symbolic(hs, phase, n_sub)
-    fast, jac_fast = compiled([sym, jac], ("-O1",))
+    fast, jac_fast = compiled([sym, jac], HOT)
     _FAST[(id(hs), phase, n_sub)] = (sym, jac)
     return NumericFunction.wrap(sym.name(), sym, fast,
                                 jacobian=lambda name: NumericFunction.wrap(name, jac_fast))
@@ -102,5 +102,5 @@ def interval_natives(hs: HybridSystem, phase: str, n_sub: int) -> tuple:
     key = (id(hs), phase, n_sub)
     compiled_interval(hs, phase, n_sub)
     if len(_FAST[key]) == 2:
-        _FAST[key] = (*_FAST[key], *native(list(_FAST[key]), ("-O1",)))
+        _FAST[key] = (*_FAST[key], *native(list(_FAST[key]), HOT))
     return _FAST[key][2:]

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from pdw_casadi.engine.compile import LazyGroup, interpreted
+from pdw_casadi.engine.compile import HOT, LazyGroup, interpreted
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem, Impact
 
@@ -254,7 +254,7 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
     xs = ca.SX.sym("xs", ns)
     E0 = ca.jacobian(model.section_to_full(xs, p), xs)
     groups.update(_named(ca.Function("zsec", [xs, p], [ca.vec(E0)])))
-    lazy = LazyGroup(groups, ("-O1",))
+    lazy = LazyGroup(groups, HOT)
 
     def pair(name):
         return lazy.np(name), lazy.np(f"adj1_{name}")
