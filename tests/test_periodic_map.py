@@ -94,7 +94,9 @@ def test_per_leg_fit_runs_through_the_fit_function(monkeypatch):
     assert fit_stride is fit_gait
     pb = atlas_problem("humanlike_6link-female_fast-rho0.86")
     sides = load_side_curves(bundled_dir("data") / "subjects" / "WBDS09_fast_sides.csv")
-    cheap = dict(rounds=1, max_iter=1, verbose=False, atlas="")
+    # without the stability row: its blocks are tests/test_shooting.py's (and a per-leg
+    # walker's take a minute to compile)
+    cheap = dict(rounds=1, max_iter=1, verbose=False, atlas="", stability_constraint=False)
     per_leg = fit_gait(pb, sides, StrideFitOptions(start="atlas", side="right", **cheap),
                        log=lambda m: None)
     sym = fit_gait(pb, sides.mean(), FitOptions(**cheap), log=lambda m: None)

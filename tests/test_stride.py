@@ -330,21 +330,40 @@ def test_per_leg_ankle_walker_follows_each_leg():
     assert np.abs(r.steps[0].x_next - same.x_next).max() > 1e-4  # the value matters
 
 
+_EXTENSION_OFF = {"c_ankle_load": 0.0, "ankle_rest": 0.0, "k_clutch": 0.0, "phi_clutch": 1.5708}
+
+
 def test_in_family_carries_a_gait_into_the_extended_walker():
     """The paper's walker as an ankle walker with the extension off (no loading damper,
-    rest angle 0, clutch spring 0) has the same stride fixed point and spectral radius."""
+    rest angle 0, clutch spring 0) has the same fixed point and spectral radius; a per-leg
+    problem keeps its legs' values (their stride: the slow test below)."""
     pb = load_problem("humanlike_6link")
-    off = {"c_ankle_load": 0.0, "ankle_rest": 0.0, "k_clutch": 0.0, "phi_clutch": 1.5708}
-    asym = _asymmetric(pb, k_ankle=5.15)
-    ext = asym.in_family("humanlike_6link_ankle", off)
-    assert ext.family == "humanlike_6link_ankle" and ext.leg_values("right")[0]["k_ankle"] == 5.15
+    ext = pb.in_family("humanlike_6link_ankle", _EXTENSION_OFF)
+    assert ext.family == "humanlike_6link_ankle" and not ext.asymmetric
     assert ext.compliance_bounds["ankle_rest"] == (-0.6, 0.6)  # the family file's bounds
+    fa = find_fixed_point(pb, tol=1e-11)
+    fb = find_fixed_point(ext, x0=fa.state, tol=1e-11)
+    assert fa.converged and fb.converged
+    assert np.abs(fa.state - fb.state).max() < 1e-9
+    assert abs(fa.spectral_radius - fb.spectral_radius) < 1e-7
+    asym = _asymmetric(pb, k_ankle=5.15).in_family("humanlike_6link_ankle", _EXTENSION_OFF)
+    assert asym.leg_values("right")[0]["k_ankle"] == 5.15
+    assert asym.leg_values("left")[0]["k_ankle"] == pb.compliance["k_ankle"]
+    with pytest.raises(ProblemError, match="exactly its extra compliance keys"):
+        pb.in_family("humanlike_6link_ankle", {"ankle_rest": 0.0})
+    with pytest.raises(ProblemError, match="does not extend"):
+        load_problem("humanlike_6link_ankle").in_family("humanlike_6link", {})
+
+
+@pytest.mark.slow
+def test_in_family_carries_a_per_leg_gait_into_the_extended_walker():
+    """The same with legs that differ: the stride fixed points and radii agree."""
+    pb = load_problem("humanlike_6link")
+    asym = _asymmetric(pb, k_ankle=5.15)
+    ext = asym.in_family("humanlike_6link_ankle", _EXTENSION_OFF)
+    assert ext.family == "humanlike_6link_ankle" and ext.leg_values("right")[0]["k_ankle"] == 5.15
     fa = find_stride_fixed_point(asym, tol=1e-11)
     fb = find_stride_fixed_point(ext, x0=fa.state, tol=1e-11)
     assert fa.converged and fb.converged
     assert np.abs(fa.state - fb.state).max() < 1e-9
     assert abs(fa.spectral_radius - fb.spectral_radius) < 1e-7
-    with pytest.raises(ProblemError, match="exactly its extra compliance keys"):
-        pb.in_family("humanlike_6link_ankle", {"ankle_rest": 0.0})
-    with pytest.raises(ProblemError, match="does not extend"):
-        load_problem("humanlike_6link_ankle").in_family("humanlike_6link", {})
