@@ -54,3 +54,30 @@ def test_constrained_dynamics_solve_the_kkt_system(hs, table2_step, params):
         for j in range(0, X.shape[1], max(1, X.shape[1] // 20)):
             r, s = f(X[:8, j], X[8:16, j], params, mv)
             assert float(ca.mmax(ca.fabs(r))) < 1e-12 * float(s), (name, j)
+
+
+def test_build_libraries_fills_the_cache_that_the_first_calls_load(tmp_path, monkeypatch):
+    """Libraries compiled side by side are the ones the lazy functions load: afterwards no
+    call compiles, a second build only verifies, and the values are CasADi's."""
+    import pdw_casadi.engine.compile as compile_module
+    from pdw_casadi.engine.compile import PLAIN, LazyGroup, build_libraries
+
+    monkeypatch.setenv("PDW_CACHE", str(tmp_path))
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("side_f", [x], [ca.sin(x) * x[1]])
+    g = ca.Function("side_g", [x], [ca.exp(x[0]) + x[1] ** 2])
+    h = ca.Function("side_h", [x], [ca.jacobian(ca.sin(x[0]) * x[1], x)])
+    lazy, group = Lazy(f, HOT), LazyGroup({"g": g, "h": h}, PLAIN)
+    lines = []
+    assert build_libraries([lazy, group, lazy], log=lines.append) == 2
+    assert len(list(tmp_path.glob("*.so"))) == 2 and len(lines) == 1
+
+    def no_build(*args):
+        raise AssertionError("a library was compiled again")
+
+    monkeypatch.setattr(compile_module, "_build", no_build)
+    assert build_libraries([lazy, group], log=lines.append) == 2 and len(lines) == 1
+    arg = np.array([0.3, -1.2])
+    np.testing.assert_array_equal(lazy.np(arg), np.asarray(f(arg)))
+    np.testing.assert_array_equal(group.np("g")(arg), np.asarray(g(arg)))
+    np.testing.assert_array_equal(group.np("h")(arg), np.asarray(h(arg)))

@@ -199,34 +199,74 @@ def _machine_lock(so: Path):
         yield
 
 
-def _library(funs: list, flags: tuple[str, ...]) -> Path | None:
+def _cache_path(funs: list, flags: tuple[str, ...]) -> Path | None:
+    """Where the library of ``funs`` compiled with ``flags`` lives in the cache (None: no
+    usable cache)."""
+    text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
+    key = hashlib.sha1(text.encode()).hexdigest()[:20]
+    with _LOCK:
+        base = _usable_cache()
+    return None if base is None else base / f"{funs[0].name()}_{key}.so"
+
+
+def _library(funs: list, flags: tuple[str, ...], so: Path | None = None) -> Path | None:
     """Path of the cached shared library holding ``funs`` (built if missing or damaged),
     or None (no compiler, no usable cache, or a failed build: interpreted)."""
     cc = compiler()
     if cc is None:
         return None
-    text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
-    key = hashlib.sha1(text.encode()).hexdigest()[:20]
-    name = funs[0].name()
-    with _LOCK:
-        base = _usable_cache()
-        if base is None:
-            return None
-        so = base / f"{name}_{key}.so"
-        with _machine_lock(so):
-            if so.exists():
-                why = _verified(so, funs)
-                if why is None:
-                    return so
-                _warn(str(so), f"damaged compiled library {so} ({why}): rebuilt")
-            try:
-                if not _build(funs, flags, cc, so):
-                    return None
-            except OSError as exc:  # e.g. the disk filled up: run uncompiled
-                _warn("build", f"could not compile into {base} ({exc.strerror or exc}); "
-                               f"running uncompiled")
+    so = so or _cache_path(funs, flags)
+    if so is None:
+        return None
+    base = so.parent
+    # the per-library lock also serialises threads of this process (each opens the lock
+    # file itself), so different libraries compile side by side (build_libraries)
+    with _machine_lock(so):
+        if so.exists():
+            why = _verified(so, funs)
+            if why is None:
+                return so
+            _warn(str(so), f"damaged compiled library {so} ({why}): rebuilt")
+        try:
+            if not _build(funs, flags, cc, so):
                 return None
+        except OSError as exc:  # e.g. the disk filled up: run uncompiled
+            _warn("build", f"could not compile into {base} ({exc.strerror or exc}); "
+                           f"running uncompiled")
+            return None
     return so
+
+
+def build_libraries(items, workers: int | None = None, log=None) -> int:
+    """Compile the libraries of ``items`` (:class:`Lazy` and :class:`LazyGroup` objects)
+    side by side, one compiler per core (``workers``, default all), into the cache that
+    their first calls then load: a first run on a fresh machine waits for the longest
+    library instead of for every library in turn. Libraries already cached are only
+    verified. ``log``: called with one line when some are compiled. Returns the number of
+    libraries compiled or verified (none without a compiler)."""
+    if compiler() is None:
+        return 0
+    jobs, seen = [], set()
+    # groups first (sensitivities through RK4 steps: the largest libraries), so that the
+    # pool ends on small ones
+    for item in sorted(items, key=lambda it: isinstance(it, Lazy)):
+        funs = [item.fun] if isinstance(item, Lazy) else list(item.funs.values())
+        key = (tuple(id(f) for f in funs), item.flags)
+        if key not in seen:
+            seen.add(key)
+            jobs.append((funs, item.flags))
+    n = max(1, min(workers or os.cpu_count() or 1, len(jobs)))
+    paths = [_cache_path(funs, flags) for funs, flags in jobs]
+    jobs = [(*job, so) for job, so in zip(jobs, paths, strict=True) if so is not None]
+    missing = sum(1 for *_, so in jobs if not so.exists())
+    if missing and log is not None:
+        log(f"compiling {missing} functions of the walker on {n} cores (once per machine; "
+            f"cached in {cache_dir()})")
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(n) as pool:
+        list(pool.map(lambda job: _library(*job), jobs))
+    return len(jobs)
 
 
 def compiled(fun, flags: tuple[str, ...] = HOT):

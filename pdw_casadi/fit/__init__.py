@@ -14,7 +14,14 @@
   own side's curves on the stride.
 """
 
-from pdw_casadi.fit.core import RefitCorrector, check_targets, fit_gait, fit_sides, fit_stride
+from pdw_casadi.fit.core import (
+    RefitCorrector,
+    check_targets,
+    fit_gait,
+    fit_libraries,
+    fit_sides,
+    fit_stride,
+)
 from pdw_casadi.fit.objective import CurveError
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.fit.result import (
@@ -30,5 +37,6 @@ from pdw_casadi.nlp.stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
            "RefitCorrector", "Solve", "StabilityRow", "StrideFitOptions", "StrideFitResult",
-           "check_targets", "evaluate_gait", "fit_gait", "fit_sides", "fit_stride", "mean_score",
+           "check_targets", "evaluate_gait", "fit_gait", "fit_libraries", "fit_sides",
+           "fit_stride", "mean_score",
            "reference_gait", "smooth_radius"]

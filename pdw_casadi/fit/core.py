@@ -27,6 +27,7 @@ import time
 
 import numpy as np
 
+from pdw_casadi.engine.compile import build_libraries
 from pdw_casadi.engine.errors import NoGait
 from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit.driver import FitSolver
@@ -44,11 +45,13 @@ from pdw_casadi.fit.stride_fit import (
 )
 from pdw_casadi.gait.curves import fit_scores
 from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
-from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.poincare import PoincareMap, sensitivity_libraries
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.gait_data import SideCurves
-from pdw_casadi.model.system import physical_parameter_vector
-from pdw_casadi.nlp.shooting import ShootingNLP
+from pdw_casadi.model.system import gait_system, physical_parameter_vector
+from pdw_casadi.nlp.interval import interval_library
+from pdw_casadi.nlp.shooting import N_SUB, ShootingNLP
+from pdw_casadi.nlp.stability import stability_libraries
 
 
 class StepFit:
@@ -159,6 +162,18 @@ def _fit_start_task(args):
     return _fit_start(problem, human, opts, s, start, log=lambda m: None, floor=floor)
 
 
+def fit_libraries(problem, opts: FitOptions, steps: int = 1) -> list:
+    """Every compiled function a fit of ``problem`` on its ``steps``-step map calls: its
+    walker, the Poincare map's sensitivities, the shooting intervals and the stability
+    row's chain (for :func:`~pdw_casadi.engine.compile.build_libraries`)."""
+    hs = PoincareMap(problem, steps=steps).hs if steps > 1 else gait_system(problem)
+    items = [*hs.libraries(), *sensitivity_libraries(hs),
+             *(interval_library(hs, phase, N_SUB) for phase in hs.phase_names)]
+    if opts.stability_constraint:
+        items += stability_libraries(hs, N_SUB)
+    return items
+
+
 def fit_gait(problem, human, options: FitOptions | None = None, log=print,
              workers: int = 1, scheduler: str | None = None):
     """Fit ``problem``'s compliance (and slope with ``free_slope``) and periodic gait to
@@ -175,9 +190,11 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     map (:func:`fit_sides`; ``options`` a :class:`~pdw_casadi.fit.StrideFitOptions`).
     """
     if isinstance(human, SideCurves):
+        build_libraries(fit_libraries(problem, options or StrideFitOptions(), steps=2), log=log)
         return fit_sides(problem, human, options, log=log)
     opts = options or FitOptions()
     check_targets(problem, human, opts)
+    build_libraries(fit_libraries(problem, opts), log=log)
     targets = opts.targets()
     t_start = time.perf_counter()
     starts = select_starts(problem, human, opts)

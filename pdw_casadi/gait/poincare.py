@@ -27,6 +27,7 @@ from pdw_casadi.model.hybrid import HybridSystem
 from pdw_casadi.model.margins import check_key, leg_key, phase_key
 from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
 from pdw_casadi.model.system import (
+    gait_system,
     hybrid_system,
     leg_layout,
     per_leg_system,
@@ -73,10 +74,12 @@ class _Sensitivities:
         x, p = ca.SX.sym("x", nx), model.p
         xs = ca.SX.sym("xs", ns)
         x0 = model.section_to_full(xs, p)
-        self.section = Lazy(ca.Function("section_jac", [xs, p], [
+        #: every compiled library of the sensitivities (see ``build_libraries``)
+        self.libraries: list = []
+        self.section = self._lazy(ca.Function("section_jac", [xs, p], [
             x0, ca.horzcat(ca.jacobian(x0, xs), ca.jacobian(x0, p))])).np
         xf = ca.SX.sym("xf", nx)
-        self.section_out = Lazy(ca.Function("section_out_jac", [xf], [
+        self.section_out = self._lazy(ca.Function("section_out_jac", [xf], [
             ca.jacobian(model.full_to_section(xf), xf)])).np
         Sp = ca.DM(ca.horzcat(ca.DM.zeros(npar, ns), ca.DM.eye(npar)))
         self.Sp = np.asarray(Sp)
@@ -107,6 +110,7 @@ class _Sensitivities:
                     f"sensacc{k}_{name}", [Z, H, P, M], [acc(Z, H, P, M)[:, -1]])
             # the Poincare Jacobian's hot loop
             lazy = LazyGroup(group, HOT)
+            self.libraries.append(lazy)
             self.partial[name] = lazy.np("partial")
             for k in _SENS_CHUNKS:
                 self.chunks[(name, k)] = lazy.np(k)
@@ -120,7 +124,7 @@ class _Sensitivities:
             out = hs.outputs[name](xm, pm, mm)
             o = ca.vertcat(*[out[r] for r, _, _ in rows])
             self.margin_rows[name] = rows
-            self.margin_jac[name] = Lazy(ca.Function(
+            self.margin_jac[name] = self._lazy(ca.Function(
                 f"margin_jac_{name}", [xm, pm, mm],
                 [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
         self.check_rows, self.check_jac = {}, {}
@@ -130,8 +134,27 @@ class _Sensitivities:
             chk = hs.impact[name](xm, pm)[2]
             o = ca.vertcat(*[chk[r] for r, _, _ in rows])
             self.check_rows[name] = rows
-            self.check_jac[name] = Lazy(ca.Function(
+            self.check_jac[name] = self._lazy(ca.Function(
                 f"check_jac_{name}", [xm, pm], [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
+
+
+    def _lazy(self, fun: ca.Function) -> Lazy:
+        lazy = Lazy(fun)
+        self.libraries.append(lazy)
+        return lazy
+
+
+def sensitivity_libraries(hs: HybridSystem) -> list:
+    """The compiled libraries of the Poincare map's exact sensitivities of walker ``hs``
+    (for :func:`~pdw_casadi.engine.compile.build_libraries`)."""
+    return list(_sens(hs).libraries)
+
+
+def fixed_point_libraries(problem) -> list:
+    """Every compiled function a fixed point of ``problem`` with its stability calls: its
+    walker (per-leg when its legs differ) and the Poincare map's sensitivities."""
+    hs = gait_system(problem)
+    return [*hs.libraries(), *sensitivity_libraries(hs)]
 
 
 #: one set of sensitivity functions per hybrid system, kept only while the system lives

@@ -316,6 +316,15 @@ class HybridSystem:
             "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
         self.point_names = list(model.points)
 
+    def libraries(self) -> list[Lazy]:
+        """Every compiled function of the walker: phases, impacts, energies and section
+        maps, with the exact derivatives of its events and impacts (for
+        :func:`~pdw_casadi.engine.compile.build_libraries`)."""
+        tables = (self.chunk, self.step, self.events, self.locate, self.require, self.outputs,
+                  self.event_jac, self.impact, self.impact_jac)
+        return [*(f for t in tables for f in t.values()), self.energy, self.step_length,
+                self.section_to_full, self.full_to_section]
+
     def rhs_jacobian(self, phase: str, x: ca.SX) -> ca.Function:
         """(xdot, dxdot/dx, dxdot/dp) of a phase as one SX function of (x, p, m) (the
         sensitivities of the Poincare map and of the shooting intervals chain it); ``x``:

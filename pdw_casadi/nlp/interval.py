@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 
 from pdw_casadi.engine.callback import NumericFunction
-from pdw_casadi.engine.compile import HOT, compiled, native
+from pdw_casadi.engine.compile import HOT, LazyGroup, compiled, native
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem
 
@@ -78,10 +78,23 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     return fun, jac
 
 
+def _symbolic_once(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca.Function]:
+    key = (id(hs), phase, n_sub)
+    if key not in _FAST:
+        _FAST[key] = _symbolic(hs, phase, n_sub)
+    return _FAST[key][:2]
+
+
+def interval_library(hs: HybridSystem, phase: str, n_sub: int) -> LazyGroup:
+    """The compiled library of the interval of ``phase`` with ``n_sub`` RK4 steps and its
+    Jacobian (for :func:`~pdw_casadi.engine.compile.build_libraries`)."""
+    sym, jac = _symbolic_once(hs, phase, n_sub)
+    return LazyGroup({"interval": sym, "jacobian": jac}, HOT)
+
+
 def _compiled(hs: HybridSystem, phase: str, n_sub: int) -> NumericFunction:
-    sym, jac = _symbolic(hs, phase, n_sub)
+    sym, jac = _symbolic_once(hs, phase, n_sub)
     fast, jac_fast = compiled([sym, jac], HOT)
-    _FAST[(id(hs), phase, n_sub)] = (sym, jac)
     return NumericFunction.wrap(sym.name(), sym, fast,
                                 jacobian=lambda name: NumericFunction.wrap(name, jac_fast))
 

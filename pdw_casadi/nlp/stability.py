@@ -191,6 +191,7 @@ class _Blocks:
     impact: dict  # transition -> (fwd, adj)
     last: dict  # transition -> (fwd, adj): section Jacobian after the impact
     section: tuple  # (fwd, adj)
+    libraries: list  # the compiled libraries behind them (one per phase, one for the section)
 
 
 #: the blocks of each hybrid system (per sub-step count), kept only while the system lives
@@ -207,8 +208,9 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
     ns = len(model.state_names)
     x, p, m = ca.SX.sym("x", nx), model.p, model.m
     Z = ca.SX.sym("Z", nx, ns + 1)
-    groups: dict[str, ca.Function] = {}
+    groups: dict[str, dict[str, ca.Function]] = {}
     for phase in hs.phase_names:
+        group = groups[phase] = {}
         # one RK4 step with its forward sensitivities, Z <- dX_next/d(xs, T_k) Z: the stages
         # chain the right-hand side's Jacobian (small SX code, compiled in seconds; the
         # reverse sweep then needs only that Jacobian's reverse mode, second-order AD)
@@ -228,16 +230,16 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
         one = ca.Function(f"zstep_{phase}", [A, H, P, M, C], [ca.vertcat(Xn, ca.vec(Zn))])
         acc = one.mapaccum(f"zacc_{phase}", n_sub)
         out = acc(A, H, P, M, C)[:, -1]
-        groups.update(_named(ca.Function(f"zint_{phase}_{n_sub}", [A, H, P, M, C],
-                                         [out[nx:]])))
+        group.update(_named(ca.Function(f"zint_{phase}_{n_sub}", [A, H, P, M, C],
+                                        [out[nx:]])))
         # the saltation projection at the segment's ending event (one-hot ``sel``)
         sel = ca.SX.sym("sel", len(hs.event_list[phase]))
         g = ca.dot(sel, hs.events[phase].fun(x, p, m))
         gx = ca.jacobian(g, x)
         R, b = Z[:, :ns], Z[:, ns]
         Rp = R - ca.mtimes(b, ca.mtimes(gx, R)) / ca.mtimes(gx, b)
-        groups.update(_named(ca.Function(f"zproj_{phase}", [x, p, m, sel, ca.vec(Z)],
-                                         [ca.vec(Rp)], {"cse": True})))
+        group.update(_named(ca.Function(f"zproj_{phase}", [x, p, m, sel, ca.vec(Z)],
+                                        [ca.vec(Rp)], {"cse": True})))
     # impacts: three calls per sweep, but large expressions (the impulse solve expanded),
     # which gcc takes minutes to compile: CasADi's interpreter runs them in milliseconds
     R = ca.SX.sym("R", nx, ns)
@@ -253,25 +255,32 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
                                          [ca.vec(ca.jtimes(xp, x, R))], {"cse": True})))
     xs = ca.SX.sym("xs", ns)
     E0 = ca.jacobian(model.section_to_full(xs, p), xs)
-    groups.update(_named(ca.Function("zsec", [xs, p], [ca.vec(E0)])))
-    lazy = LazyGroup(groups, HOT)
+    groups["zsec"] = _named(ca.Function("zsec", [xs, p], [ca.vec(E0)]))
+    # one library per phase: compiled side by side on a cold start (build_libraries)
+    lazy = {key: LazyGroup(group, HOT) for key, group in groups.items()}
 
-    def pair(name):
-        return lazy.np(name), lazy.np(f"adj1_{name}")
+    def pair(name, key):
+        return lazy[key].np(name), lazy[key].np(f"adj1_{name}")
 
     def vm_pair(name):
         return interpreted(vm[name]), interpreted(vm[f"adj1_{name}"])
 
     blocks = _Blocks(
-        interval={ph: pair(f"zint_{ph}_{n_sub}") for ph in hs.phase_names},
-        project={ph: pair(f"zproj_{ph}") for ph in hs.phase_names},
+        interval={ph: pair(f"zint_{ph}_{n_sub}", ph) for ph in hs.phase_names},
+        project={ph: pair(f"zproj_{ph}", ph) for ph in hs.phase_names},
         impact={tr.name: vm_pair(f"zimp_{tr.name}") for tr in hs.model.transitions
                 if not tr.ends_step},
         last={tr.name: vm_pair(f"zlast_{tr.name}") for tr in hs.model.transitions
               if tr.ends_step},
-        section=pair("zsec"))
+        section=pair("zsec", "zsec"), libraries=list(lazy.values()))
     per_system[n_sub] = blocks
     return blocks
+
+
+def stability_libraries(hs: HybridSystem, n_sub: int) -> list:
+    """The compiled libraries of the stability row's chain for walker ``hs`` with ``n_sub``
+    RK4 steps per interval (for :func:`~pdw_casadi.engine.compile.build_libraries`)."""
+    return list(_blocks(hs, n_sub).libraries)
 
 
 def _named(f: ca.Function) -> dict[str, ca.Function]:

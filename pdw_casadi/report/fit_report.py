@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from pdw_casadi.engine.compile import build_libraries
 from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.fit import (
     Candidate,
@@ -22,9 +23,11 @@ from pdw_casadi.fit import (
     FitResult,
     check_targets,
     fit_gait,
+    fit_libraries,
     mean_score,
     reference_gait,
 )
+from pdw_casadi.gait.poincare import fixed_point_libraries
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.timing import fixed_point_timing, human_timing, timing_table
 from pdw_casadi.model.faces import walker_faces
@@ -68,10 +71,14 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
     """Fit, compare with the references, write the report files into ``out``; the summary."""
     out = Path(out)
     check_targets(problem, human, opts or FitOptions())  # before the reference solves
-    log("reference: the problem's own compliance on the same data")
-    table3 = reference_gait(problem, human)
     faces = walker_faces(problem)
     comparison_name = faces.comparison_problem
+    # everything the references and the fit call, compiled side by side on a first run
+    build_libraries([*fit_libraries(problem, opts or FitOptions()),
+                     *(fixed_point_libraries(load_problem(comparison_name))
+                       if comparison_name else ())], log=log)
+    log("reference: the problem's own compliance on the same data")
+    table3 = reference_gait(problem, human)
     paper = dict(faces.paper_reported) if faces.paper_reported else None
     comparison = None
     if comparison_name is not None:
