@@ -41,6 +41,10 @@ _LOCK = threading.Lock()
 #: docs/results/performance.md has the figures.
 HOT: tuple[str, ...] = ("-Og",)
 PLAIN: tuple[str, ...] = ("-O0",)
+#: never compiled: large expressions evaluated once per step or phase (an impact with its
+#: impulse solve expanded, its Jacobians), where CasADi's virtual machine costs well under
+#: a millisecond per call and gcc seconds per function on every walker's first run
+INTERPRETED = None
 
 
 def cache_dir() -> Path:
@@ -250,6 +254,8 @@ def build_libraries(items, workers: int | None = None, log=None) -> int:
     # groups first (sensitivities through RK4 steps: the largest libraries), so that the
     # pool ends on small ones
     for item in sorted(items, key=lambda it: isinstance(it, Lazy)):
+        if item.flags is None:
+            continue
         funs = [item.fun] if isinstance(item, Lazy) else list(item.funs.values())
         key = (tuple(id(f) for f in funs), item.flags)
         if key not in seen:
@@ -407,9 +413,9 @@ class Lazy:
     numpy arrays through :class:`Native` (for hot loops).
     """
 
-    def __init__(self, fun: ca.Function, flags: tuple[str, ...] = PLAIN):
+    def __init__(self, fun: ca.Function, flags: tuple[str, ...] | None = PLAIN):
         self.fun = fun
-        self.flags = flags
+        self.flags = flags  # INTERPRETED (None): never compiled
         self._fast: ca.Function | None = None
         self._np = None
 
@@ -417,12 +423,13 @@ class Lazy:
         if any(isinstance(a, ca.SX | ca.MX) for a in args):
             return self.fun(*args)  # symbolic use (e.g. in an NLP): keep CasADi's derivatives
         if self._fast is None:
-            self._fast = compiled(self.fun, self.flags)
+            self._fast = self.fun if self.flags is None else compiled(self.fun, self.flags)
         return self._fast(*args)
 
     def np(self, *args):
         if self._np is None:
-            self._np = native([self.fun], self.flags)[0]
+            self._np = (interpreted(self.fun) if self.flags is None
+                        else native([self.fun], self.flags)[0])
         return self._np(*args)
 
     def __getattr__(self, item):

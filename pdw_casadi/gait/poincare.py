@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from pdw_casadi.engine.compile import HOT, Lazy, LazyGroup
+from pdw_casadi.engine.compile import HOT, INTERPRETED, PLAIN, Lazy, LazyGroup
 from pdw_casadi.engine.errors import PoincareError, ProblemError
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.gait.simulate import Segment, SimulationResult, Simulator, StepRecord
@@ -135,11 +135,12 @@ class _Sensitivities:
             o = ca.vertcat(*[chk[r] for r, _, _ in rows])
             self.check_rows[name] = rows
             self.check_jac[name] = self._lazy(ca.Function(
-                f"check_jac_{name}", [xm, pm], [o, ca.jacobian(o, xm), ca.jacobian(o, pm)])).np
+                f"check_jac_{name}", [xm, pm], [o, ca.jacobian(o, xm), ca.jacobian(o, pm)]),
+                INTERPRETED).np
 
 
-    def _lazy(self, fun: ca.Function) -> Lazy:
-        lazy = Lazy(fun)
+    def _lazy(self, fun: ca.Function, flags=PLAIN) -> Lazy:
+        lazy = Lazy(fun, flags)
         self.libraries.append(lazy)
         return lazy
 

@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import casadi as ca
 
-from pdw_casadi.engine.compile import HOT, Lazy
+from pdw_casadi.engine.compile import HOT, INTERPRETED, Lazy
 from pdw_casadi.engine.rk4 import rk4
 from pdw_casadi.model.margins import Margin, check_key, check_margin, output_margin, phase_key
 from pdw_casadi.model.mechanics.planar import ContactSet, PlanarSystem
@@ -297,10 +297,10 @@ class HybridSystem:
             self.impact[tr.name] = Lazy(ca.Function(
                 f"impact_{tr.name}", [x, p],
                 [x_plus, subs_x(tr.impulse), subs_x(chk), x_post],
-                ["x", "p"], ["x_plus", "impulse", "checks", "x_post"]))
+                ["x", "p"], ["x_plus", "impulse", "checks", "x_post"]), INTERPRETED)
             self.impact_jac[tr.name] = Lazy(ca.Function(
                 f"impact_jac_{tr.name}", [x, p],
-                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]))
+                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]), INTERPRETED)
         self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
         for tr in model.transitions:
             self.check_margins[tr.name] = _declared(list(tr.checks), tr.margins, check_margin)
