@@ -63,6 +63,12 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         stride = pmap.steps > 1
         faces = None if stride else walker_faces(problem)
         out = outputs.create()
+        from pdw_casadi.engine.compile import build_libraries
+        from pdw_casadi.gait.poincare import sensitivity_libraries
+
+        # a first run on this machine: the walker and its sensitivities, side by side
+        build_libraries([*pmap.hs.libraries(), *sensitivity_libraries(pmap.hs)],
+                        log=lambda m: print(m, file=sys.stderr, flush=True))
         print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
               file=sys.stderr)
         res = find_fixed_point(problem, tol=args.tol, pmap=pmap, verbose=not stride)
