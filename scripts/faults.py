@@ -98,9 +98,9 @@ def leftovers(folder: Path) -> list[str]:
     """Partial files or folders of a run left in ``folder``."""
     if not folder.is_dir():
         return []
-    return [p.name for p in folder.iterdir()
-            if p.name.startswith(".pdw-partial-") or ".partial" in p.suffixes
-            or p.name.startswith(".pdw-write-test-")]
+    return [p.name for p in folder.iterdir() if p.name not in ALLOWED_NEW and (
+            p.name.startswith(".pdw-partial-") or ".partial" in p.suffixes
+            or p.name.startswith(".pdw-write-test-"))]
 
 
 def prepare(case: Case, work: Path) -> Path | None:

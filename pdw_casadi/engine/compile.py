@@ -31,6 +31,9 @@ import casadi as ca
 import numpy as np
 
 _LOCK = threading.Lock()
+#: compilers running for build_libraries, stopped when it is interrupted
+_RUNNING: set = set()
+_CANCEL = threading.Event()
 
 #: gcc flags by what the generated code does (the one home of the optimisation levels).
 #: ``HOT``: code that a hot loop calls many times and that loops itself (a chunk of RK4
@@ -170,9 +173,17 @@ def _build(funs: list, flags: tuple[str, ...], cc: str, so: Path) -> bool:
             cg.add(f)
         cg.generate(tmp + os.sep)
         out = Path(tmp) / f"{name}.so"
-        res = subprocess.run([cc, *flags, "-shared", "-fPIC", "-o", str(out),
-                              str(Path(tmp) / src)], capture_output=True, text=True)
-        if res.returncode != 0:
+        if _CANCEL.is_set():
+            return False
+        proc = subprocess.Popen([cc, *flags, "-shared", "-fPIC", "-o", str(out),
+                                 str(Path(tmp) / src)], stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        _RUNNING.add(proc)
+        try:
+            returncode = proc.wait()
+        finally:
+            _RUNNING.discard(proc)
+        if returncode != 0 or _CANCEL.is_set():
             return False
         record = Path(tmp) / "record"
         record.write_text(_record(out))
@@ -270,8 +281,20 @@ def build_libraries(items, workers: int | None = None, log=None) -> int:
             f"cached in {cache_dir()})")
     from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(n) as pool:
-        list(pool.map(lambda job: _library(*job), jobs))
+    pool = ThreadPoolExecutor(n)
+    try:
+        for future in [pool.submit(_library, *job) for job in jobs]:
+            future.result()
+    except BaseException:
+        # Ctrl-C or a signal: stop the compilers now (a library is only ever replaced
+        # whole, so nothing half-built stays in the cache), then let the error through
+        _CANCEL.set()
+        for proc in list(_RUNNING):
+            proc.kill()
+        pool.shutdown(wait=True, cancel_futures=True)
+        _CANCEL.clear()
+        raise
+    pool.shutdown(wait=True)
     return len(jobs)
 
 
