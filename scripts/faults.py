@@ -463,8 +463,8 @@ def make_cases(f: dict[str, str]) -> list[Case]:
     stages = {
         "simulate": (cg + ["--steps", "400"], [("start", 0.3), ("imports", 1.5),
                                                ("stepping", "pdw-simulate:")]),
-        "fixed-point": (["--problem", "humanlike_6link"], [("start", 0.3), ("imports", 1.5),
-                                                           ("solving", 8.0)]),
+        "fixed-point": (["--problem", "humanlike_6link"], [
+            ("start", 0.3), ("imports", 1.5), ("solving", "solving for a fixed point")]),
         "sweep": (cg + ["--from", "0.03", "--to", "0.06", "--num", "40"],
                   [("start", 0.3), ("imports", 1.5), ("sweeping", "pdw-sweep:")]),
         "fit": (fit + ["--max-iter", "40"], [("start", 0.3), ("imports", 1.5),

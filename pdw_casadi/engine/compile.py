@@ -30,6 +30,8 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
+from pdw_casadi.engine import interrupt
+
 _LOCK = threading.Lock()
 #: compilers running for build_libraries, stopped when it is interrupted
 _RUNNING: set = set()
@@ -180,7 +182,11 @@ def _build(funs: list, flags: tuple[str, ...], cc: str, so: Path) -> bool:
                                 stderr=subprocess.DEVNULL)
         _RUNNING.add(proc)
         try:
-            returncode = proc.wait()
+            returncode = _wait(proc)
+        except BaseException:
+            proc.kill()
+            proc.wait()
+            raise
         finally:
             _RUNNING.discard(proc)
         if returncode != 0 or _CANCEL.is_set():
@@ -192,6 +198,17 @@ def _build(funs: list, flags: tuple[str, ...], cc: str, so: Path) -> bool:
         os.replace(record, so.with_suffix(".sum"))
         os.replace(out, so)
     return True
+
+
+def _wait(proc: subprocess.Popen) -> int:
+    """The compiler's exit code; a signal that is pending (one a C++ call swallowed on the
+    way) ends the wait and is raised, so a long compile never delays an interrupt."""
+    while True:
+        try:
+            return proc.wait(timeout=0.2)
+        except subprocess.TimeoutExpired:
+            if interrupt.active():
+                interrupt.check()
 
 
 @contextmanager

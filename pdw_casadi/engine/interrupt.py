@@ -38,6 +38,11 @@ def requested() -> int | None:
     return _pending[0] if _pending else None
 
 
+def active() -> bool:
+    """Whether the calling code runs inside a :func:`handling` block (a command)."""
+    return _depth[0] > 0
+
+
 def check() -> None:
     """Raise :class:`Interrupted` when a signal is pending (call after a solve)."""
     if _pending:
