@@ -41,8 +41,8 @@ _CANCEL = threading.Event()
 #: ``HOT``: code that a hot loop calls many times and that loops itself (a chunk of RK4
 #: steps, sensitivities through steps, shooting intervals); -Og keeps values in registers
 #: like -O1 but skips its costliest passes. ``PLAIN``: straight-line code called a few times
-#: per step (events, event location, impacts, outputs, Jacobians of the section); gcc's
-#: optimiser would cost several times the compile time for no measurable gain.
+#: per step (events, event location, outputs, margins, the section maps); gcc's optimiser
+#: would cost several times the compile time for no measurable gain.
 #: docs/results/performance.md has the figures.
 HOT: tuple[str, ...] = ("-Og",)
 PLAIN: tuple[str, ...] = ("-O0",)
