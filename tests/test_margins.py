@@ -14,7 +14,7 @@ from pdw_casadi.model.hybrid import HybridSystem
 from pdw_casadi.model.margins import CLEARANCE, IMPULSE, NORMAL_FORCE, Margin, MarginKind
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.model.walkers import get_family
-from pdw_casadi.nlp.shooting import MARGIN_SLACK, ShootingNLP
+from pdw_casadi.nlp.shooting import ShootingNLP
 
 DEG = np.pi / 180
 NAME = "clearance_hip_over_half_leg"  # a name no walker uses: only the prefix counts
@@ -80,7 +80,7 @@ def test_validity_and_nlp_agree_on_the_margin(walker, monkeypatch):
         g = ca.Function("g", [nlp.w], [nlp.g])(nlp.w0).full().ravel()[rows]
         # the NLP's guess is the simulated gait: its smallest demanded row is the margin less
         # the requirement (to the NLP's slightly different RK4 grid)
-        assert g.min() == pytest.approx(m - need - MARGIN_SLACK, abs=2e-4)
+        assert g.min() == pytest.approx(m - need - CLEARANCE.nlp_slack, abs=2e-4)
         assert bool(g.min() < 0) == broken
 
 

@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+from collections import OrderedDict
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -134,23 +135,35 @@ def _probe(so: Path, funs: list) -> bool:
     return res.returncode == 0 and res.stdout == want
 
 
+#: libraries this process found intact, with the file's identity then (size, change time,
+#: inode): a library whose file has not changed since is not read and summed again
+_INTACT: dict[Path, tuple[int, int, int]] = {}
+
+
 def _verified(so: Path, funs: list) -> str | None:
     """None when the cached ``so`` is intact, else why not. A library built by this
     module has its size and checksum beside it (``.sum``); an older one without it is
     probed in a child process once and then recorded."""
     record = so.with_suffix(".sum")
     try:
-        size = so.stat().st_size
+        st = so.stat()
+        stamp = (st.st_size, st.st_mtime_ns, st.st_ino)
+        if _INTACT.get(so) == stamp:
+            return None
+        size = st.st_size
         if size == 0:
             return "empty file"
         if record.exists():
             want = record.read_text()
             if want.split()[:1] != [str(size)]:
                 return f"size {size} bytes, built as {want.split()[0] if want else '?'}"
-            return None if want == _record(so) else "checksum differs from the build's"
-        if not _probe(so, funs):
+            if want != _record(so):
+                return "checksum differs from the build's"
+        elif _probe(so, funs):
+            _write_record(so)
+        else:
             return "does not load or holds other functions"
-        _write_record(so)
+        _INTACT[so] = stamp
         return None
     except OSError as exc:
         return exc.strerror or str(exc)
@@ -231,11 +244,31 @@ def _machine_lock(so: Path):
         yield
 
 
+#: the cache key of recently hashed function lists, by identity: serialising a walker's
+#: functions to hash them costs seconds, and a fit asks for each library several times (its
+#: listing, then each first call). The entries hold the functions, so an identity is never
+#: reused while it is recorded; bounded, so a long process does not keep every walker alive.
+_KEYS: OrderedDict[tuple, tuple[list, str]] = OrderedDict()
+_KEYS_MAX = 512
+
+
 def _cache_path(funs: list, flags: tuple[str, ...]) -> Path | None:
     """Where the library of ``funs`` compiled with ``flags`` lives in the cache (None: no
     usable cache)."""
-    text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
-    key = hashlib.sha1(text.encode()).hexdigest()[:20]
+    ident = (tuple(id(f) for f in funs), flags)
+    with _LOCK:
+        hit = _KEYS.get(ident)
+        if hit is not None:
+            _KEYS.move_to_end(ident)
+    if hit is not None:
+        key = hit[1]
+    else:
+        text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
+        key = hashlib.sha1(text.encode()).hexdigest()[:20]
+        with _LOCK:
+            _KEYS[ident] = (list(funs), key)
+            while len(_KEYS) > _KEYS_MAX:
+                _KEYS.popitem(last=False)
     with _LOCK:
         base = _usable_cache()
     return None if base is None else base / f"{funs[0].name()}_{key}.so"
@@ -345,6 +378,7 @@ class Native:
     """
 
     def __init__(self, fun: ca.Function, so: Path):
+        self._fun, self._so = fun, so
         lib = ctypes.CDLL(str(so))
         name = fun.name()
         self._call = getattr(lib, name)
@@ -386,6 +420,11 @@ class Native:
                 raise RuntimeError("compiled CasADi function failed")
             outs = [self._dense(k) for k in range(len(self._out))]
         return outs[0] if len(outs) == 1 else tuple(outs)
+
+    def clone(self) -> Native:
+        """The same compiled function with buffers and a memory slot of its own: calls of
+        the two run side by side in threads (ctypes releases the GIL during the call)."""
+        return Native(self._fun, self._so)
 
     def _dense(self, k):
         rows, cols, tri = self._shape_out[k]

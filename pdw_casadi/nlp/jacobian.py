@@ -18,6 +18,9 @@ Python-called intervals) took seconds to build and about a second per evaluation
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import casadi as ca
 import numpy as np
 import scipy.sparse as sps
@@ -40,7 +43,9 @@ class StructuredJacobian:
     point; :meth:`function` a CasADi function x -> dg/dx for nlpsol.
     """
 
-    def __init__(self, nlp, g: ca.MX, x: ca.MX):
+    def __init__(self, nlp, g: ca.MX, x: ca.MX, workers: int | None = None):
+        """``workers``: threads that evaluate the compiled intervals side by side (default:
+        one per core; the results do not depend on it)."""
         self.nlp = nlp
         nx = nlp.hs.nx
         self.n_x, self.m = x.shape[0], g.shape[0]
@@ -123,12 +128,30 @@ class StructuredJacobian:
         self.sparsity = ca.Sparsity(self.m, self.n_x, P.indptr.tolist(), P.indices.tolist())
         counts = np.diff(P.indptr)
         self._keys = np.repeat(np.arange(self.n_x), counts) * self.m + P.indices
-        self._native = {s.phase: interval_natives(nlp.hs, s.phase, s.n_sub)
-                        for s in nlp.specs}
+        # per worker thread its own copy of each phase's compiled interval and Jacobian
+        # (buffers are per copy); interval i of every segment goes to worker i % workers
+        pairs = {s.phase: interval_natives(nlp.hs, s.phase, s.n_sub) for s in nlp.specs}
+        self._workers = max(1, min(workers if workers is not None else os.cpu_count() or 1,
+                                   max(s.n_int for s in nlp.specs)))
+        self._native = [pairs] + [{ph: tuple(f.clone() if hasattr(f, "clone") else f
+                                             for f in pair) for ph, pair in pairs.items()}
+                                  for _ in range(self._workers - 1)]
+        self._pool = ThreadPoolExecutor(self._workers) if self._workers > 1 else None
 
     def _Sx(self, data) -> sps.csr_matrix:
         return sps.csr_matrix((data, self._Sx_indices, self._Sx_indptr),
                               shape=(self._used.size, self.n_x))
+
+    def _intervals(self, worker: int, segments: list) -> dict:
+        """Samples and Jacobians of the intervals i = worker (mod workers) of every segment
+        (``segments``: per segment its nodes, parameters, mode and step size)."""
+        out = {}
+        for k, (s, X, ps, mode, h) in enumerate(segments):
+            fwd, jacf = self._native[worker][s.phase]
+            for i in range(worker, s.n_int, self._workers):
+                a, b = fwd(X[:, i], ps, mode, h)
+                out[k, i] = (a, b, jacf(X[:, i], ps, mode, h, a, b))
+        return out
 
     def values(self, x) -> np.ndarray:
         """The nonzeros of dg/dx at ``x`` in :attr:`sparsity`'s order."""
@@ -138,24 +161,26 @@ class StructuredJacobian:
         p, T = u["p"], u["T"]
         S = np.empty(self.n_S)
         data = np.empty((self._used.size, self._width))
-        outs = {}
-        o = 0
+        segments = []
         for k, s in enumerate(nlp.specs):
             perm = nlp.step_perms[s.step]
-            ps = p if perm is None else p[perm]
             X = x[self._o_X[k]: self._o_X[k] + nx * (s.n_int + 1)].reshape(
                 (nx, s.n_int + 1), order="F")[:, :-1]
-            h = T[k] / (s.n_int * s.n_sub)
-            fwd, jacf = self._native[s.phase]
-            mode = np.asarray(s.mode, float)
-            xs_, ys_, bl = [], [], []
-            for i in range(s.n_int):
-                a, b = fwd(X[:, i], ps, mode, h)
-                xs_.append(a)
-                ys_.append(b)
-                bl.append(jacf(X[:, i], ps, mode, h, a, b))
-            Xs, Ys = np.hstack(xs_), np.hstack(ys_)
-            jac = [np.hstack([b[q] for b in bl]) for q in range(8)]
+            segments.append((s, X, p if perm is None else p[perm], np.asarray(s.mode, float),
+                             T[k] / (s.n_int * s.n_sub)))
+        if self._pool is None:
+            done = self._intervals(0, segments)
+        else:
+            done = {}
+            for part in self._pool.map(self._intervals, range(self._workers),
+                                       [segments] * self._workers):
+                done.update(part)
+        outs = {}
+        o = 0
+        for k, (s, _X, ps, _m, _h) in enumerate(segments):
+            got = [done[k, i] for i in range(s.n_int)]
+            Xs, Ys = np.hstack([g[0] for g in got]), np.hstack([g[1] for g in got])
+            jac = [np.hstack([g[2][q] for g in got]) for q in range(8)]
             outs[k] = (Xs, Ys, jac, s, ps)
         for k, _s in enumerate(nlp.specs):  # S: all X samples, then all Y samples
             Xs = outs[k][0]

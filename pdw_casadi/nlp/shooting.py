@@ -49,9 +49,6 @@ from pdw_casadi.model.hybrid import GUARD, SWITCH, HybridSystem
 from pdw_casadi.nlp.interval import compiled_interval, interval_output_names
 
 H_MAX_FACTOR = 1.25  # largest RK4 step in the NLP, in units of the simulator's step size
-#: margins are demanded this much beyond the problem's minimum (N or m), so that a binding
-#: margin still passes the simulator's strict check after IPOPT's 1e-8 feasibility
-MARGIN_SLACK = 1e-6
 #: the NLP's own slope bounds (rad) when a caller gives none (the fit has its own:
 #: FitOptions.slope_bounds)
 SLOPE_BOUNDS = (0.02, 0.30)
@@ -359,7 +356,7 @@ class ShootingNLP:
             ts = self.sample_t[k]
             y0 = hs.outputs[s.phase](X[:, 0], p, mv)
             for j, name, spec in hs.phase_margins[s.phase]:
-                need = spec.minimum(v) + MARGIN_SLACK
+                need = spec.minimum(v) + spec.nlp_slack
                 if spec.active_after <= 0:
                     add(ca.horzcat(y0[j], Y[j, cols]), need, ca.inf, f"margin[{k}]:{name}")
                     continue
