@@ -1,10 +1,11 @@
 """Time the fit NLP's constraint Jacobian: built and evaluated by CasADi from the MX graph
 (``FitOptions(jacobian="casadi")``) against the one assembled from the shooting structure
-(``"structured"``, pdw_casadi.nlp.jacobian), in the same run, at the bundled file's first
-start (humanlike 6-link walker, all compliance free). Prints the median of ``--repeat``
-evaluations of IPOPT's ``jac_g`` function (stability row included) and the build time of
-the FitSolver (CPU time of this process: robust on a shared machine), and the largest
-difference of the two Jacobians.
+(``"structured"``, pdw_casadi.nlp.jacobian) on one thread and with its intervals on one
+thread per core (``FitOptions.threads``), in the same run, at the bundled file's first start
+(humanlike 6-link walker, all compliance free). Prints the build time of the FitSolver (CPU
+time of this process) and the median of ``--repeat`` evaluations of IPOPT's ``jac_g``
+function (stability row included), in wall time and in CPU time of the process (threads
+show in the wall time only), and the largest difference of the Jacobians.
 
     python scripts/bench_jacobian.py [--repeat 5]
 """
@@ -37,26 +38,37 @@ def main(argv=None) -> int:
     nlp = ShootingNLP(problem, fp.state, fp.parameters, free=tuple(problem.compliance_names),
                       sample_stride=2)
     rng = np.random.default_rng(0)
-    out = {}
-    for kind in ("casadi", "structured"):
+    out, w = {}, None
+    for kind, threads in (("casadi", 1), ("structured", 1), ("structured", None)):
+        label = f"{kind}, {'1 thread' if threads == 1 else 'threads per core'}"
         t0 = time.process_time()
-        fs = FitSolver(nlp, human, FitOptions(verbose=False, jacobian=kind), log=None)
+        fs = FitSolver(nlp, human, FitOptions(verbose=False, jacobian=kind, threads=threads),
+                       log=None)
         build = time.process_time() - t0
-        w = nlp.w0 * (1 + 1e-6 * rng.standard_normal(nlp.w0.size)) if not out else out["w"]
+        if w is None:
+            w = nlp.w0 * (1 + 1e-6 * rng.standard_normal(nlp.w0.size))
         x = np.r_[w, fs.err(w).full().ravel()]
         fs.jac_g(x, [])  # first call: lazy compilation, caches
-        times = []
+        walls, cpus = [], []
         for _ in range(args.repeat):
-            t0 = time.process_time()
+            t0, c0 = time.perf_counter(), time.process_time()
             J = fs.jac_g(x, [])[1]
-            times.append(time.process_time() - t0)
-        out.update({kind: (build, float(np.median(times)), J), "w": w})
-        print(f"{kind:10s}: build {build:6.2f} s, jac_g median {np.median(times):.3f} s "
-              f"({args.repeat} calls)", flush=True)
-    a, b = out["casadi"][2].full(), out["structured"][2].full()
-    print(f"largest difference {np.abs(a - b).max():.1e} (largest entry {np.abs(a).max():.1e}); "
-          f"ratios casadi / structured: build {out['casadi'][0] / out['structured'][0]:.1f}, "
-          f"jac_g {out['casadi'][1] / out['structured'][1]:.1f}")
+            walls.append(time.perf_counter() - t0)
+            cpus.append(time.process_time() - c0)
+        out[label] = (build, float(np.median(walls)), float(np.median(cpus)), J)
+        print(f"{label:30s}: build {build:6.2f} s CPU, jac_g median {np.median(walls):.3f} s "
+              f"wall, {np.median(cpus):.3f} s CPU ({args.repeat} calls)", flush=True)
+    ref = out["casadi, 1 thread"]
+    for label, (build, wall, _cpu, J) in out.items():
+        if label.startswith("casadi"):
+            continue
+        diff = np.abs(ref[3].full() - J.full()).max()
+        print(f"{label}: largest difference to casadi's {diff:.1e}"
+              f" (largest entry {np.abs(ref[3].full()).max():.1e}); ratios casadi / this: build "
+              f"{ref[0] / build:.1f}, jac_g wall {ref[1] / wall:.1f}")
+    one, many = out["structured, 1 thread"], out["structured, threads per core"]
+    print(f"threads per core against 1 thread: jac_g wall x{many[1] / one[1]:.2f}, "
+          f"bit-identical: {bool((one[3].full() == many[3].full()).all())}")
     return 0
 
 

@@ -29,6 +29,12 @@ def _check(nlp, g, x, x0):
     # the wrapped CasADi function gives the same values
     f = sj.function()
     np.testing.assert_array_equal(np.asarray(f(x0).nonzeros()), sj.values(x0))
+    # the intervals evaluated on one thread or side by side on three: the same numbers, bit
+    # for bit (each thread has its own copy of the compiled functions)
+    one, three = StructuredJacobian(nlp, g, x, workers=1), StructuredJacobian(nlp, g, x, 3)
+    assert three._workers == 3
+    np.testing.assert_array_equal(one.values(x0), sj.values(x0))
+    np.testing.assert_array_equal(three.values(x0), sj.values(x0))
 
 
 def test_structured_jacobian_of_the_compass_gait_nlp_is_casadis():

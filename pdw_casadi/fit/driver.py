@@ -83,7 +83,7 @@ class FitSolver:
         self.cap = [None]  # set per solve (FitOptions.iterate_radius_slack)
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
             self.x, obj, ca.vertcat(nlp.g, *rows, *floor_rows), self.row, self.n_w,
-            nlp if opts.jacobian == "structured" else None, self.cap)
+            nlp if opts.jacobian == "structured" else None, self.cap, opts.threads)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
         self.lbg = np.r_[nlp.lbg, np.zeros(ne), np.full(len(floor_ub), -np.inf)]

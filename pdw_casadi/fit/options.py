@@ -62,6 +62,9 @@ class FitOptions:
     #: pdw_casadi.nlp.jacobian) or "casadi" (CasADi's Jacobian of the MX graph: slower, the
     #: reference the structured one is tested against)
     jacobian: str = "structured"
+    #: threads that evaluate the shooting intervals of the structured Jacobian side by side
+    #: (None: one per core; the answer does not depend on it)
+    threads: int | None = None
     max_iter: int = 300
     tol: float = 1e-6
     hessian: str = "limited-memory"

@@ -72,7 +72,7 @@ class Iterate:
 
 
 def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
-                  cap: list | None = None):
+                  cap: list | None = None, threads: int | None = None):
     """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT.
 
     With the :class:`~pdw_casadi.nlp.shooting.ShootingNLP` ``nlp`` whose unknowns start
@@ -80,11 +80,12 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
     (:mod:`pdw_casadi.nlp.jacobian`), else CasADi differentiates the MX graph. ``cap``
     ([value] or [None], read at every evaluation): a stability row above the value is NaN,
     which IPOPT treats as an evaluation error and answers by cutting its step back, so that
-    no iterate lies above it."""
+    no iterate lies above it. ``threads``: threads of the assembled Jacobian (None: one
+    per core)."""
     P = ca.MX.sym("p", 0, 1)
     dense = ca.Sparsity.dense
     if nlp is not None:
-        structured = StructuredJacobian(nlp, g_base, x).function("fit_jac_base")
+        structured = StructuredJacobian(nlp, g_base, x, threads).function("fit_jac_base")
         g, J = g_base, structured(x)
     else:
         structured = None
