@@ -111,7 +111,9 @@ class FitSolver:
     def solve(self, w0) -> dict:
         """Solve from ``w0`` (ShootingNLP unknowns): the answer, IPOPT status, iterations."""
         opts = self.opts
-        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, opts.ipopt, opts.log_file)
+        extra = {} if opts.mu_max is None else {"mu_max": opts.mu_max}
+        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, {**extra, **opts.ipopt},
+                               opts.log_file)
         progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
                              self.ubx, self.r2_of, self.row is not None,
                              self.log if opts.verbose else None)

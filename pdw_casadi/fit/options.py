@@ -67,6 +67,13 @@ class FitOptions:
     threads: int | None = None
     max_iter: int = 300
     tol: float = 1e-6
+    #: the largest barrier parameter IPOPT may choose (its ``mu_max``): a fit starts at a
+    #: stable gait near the answer, with about 10^4 inequality rows (margins, event signs)
+    #: against an objective of order 0.1-1; when IPOPT's adaptive rule resets the barrier to
+    #: 1e-4..1e-3, the barrier terms outweigh the objective and push the iterate far from the
+    #: start (fits then took three times the iterations). 1e-5 keeps the barrier's share of
+    #: the merit function near the objective's (docs/results/fit.md). None: IPOPT's default
+    mu_max: float | None = 1e-5
     hessian: str = "limited-memory"
     rounds: int = 2
     consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
