@@ -296,7 +296,10 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
     pool = _table(tmp_path / "pool")
     assert len(pool) == 2 and set(pool["status"]) <= {"accepted", "rejected", "failed"}
     assert (pool["status"] == "accepted").any() and pool["r2_hip"].notna().any()
-    assert pool.loc[pool["status"] != "accepted", "reason"].str.len().gt(0).all()
+    # every fit not accepted says why (with both accepted there is none to check: the
+    # column then holds no strings for pandas' .str)
+    assert all(isinstance(r, str) and r for r in pool.loc[pool["status"] != "accepted",
+                                                           "reason"])
     assert "2 fits:" in out
     # the same fits on a Dask LocalCluster, given by its address
     with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1,
