@@ -170,8 +170,9 @@ def test_a_docstring_role_naming_nothing_is_an_error(tmp_path):
     assert "[`design`][docs_fixture_pkg.gait.design]" in package["gait"].docstring.value
 
 
-PATH_REF = re.compile(r"(?<![\w./-])((?:pdw_casadi|scripts|tests|data|problems|notebooks|docs)"
-                      r"/[\w./-]*[\w/])(?![\w{<*])")
+#: (corpus file names carry + and - : data/corpus/WBDS18_hip+.csv)
+PATH_REF = re.compile(r"(?<![\w./+-])((?:pdw_casadi|scripts|tests|data|problems|notebooks|docs)"
+                      r"/[\w./+-]*[\w/])(?![\w{<*+])")
 #: paths that a source citation names in another repository (data/README.md)
 CITED_ELSEWHERE = {"data/h2a_comfspeed_43subs.csv"}
 NAME_REF = re.compile(r"(?<![\w./])(pdw_casadi(?:\.\w+)+)")
