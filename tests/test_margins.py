@@ -10,9 +10,17 @@ import pytest
 
 from pdw_casadi.gait.fixed_point import find_fixed_point, validity_failure, validity_slacks
 from pdw_casadi.gait.simulate import Simulator
-from pdw_casadi.model.hybrid import HybridSystem
-from pdw_casadi.model.margins import CLEARANCE, IMPULSE, NORMAL_FORCE, Margin, MarginKind
+from pdw_casadi.model.hybrid import GUARD, HybridSystem
+from pdw_casadi.model.margins import (
+    CLEARANCE,
+    GUARD_AHEAD,
+    IMPULSE,
+    NORMAL_FORCE,
+    Margin,
+    MarginKind,
+)
 from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import gait_system
 from pdw_casadi.model.walkers import get_family
 from pdw_casadi.nlp.shooting import ShootingNLP
 
@@ -95,3 +103,103 @@ def test_declared_margins_override_the_naming_rule(walker):
     phase.margins = {"no_such_output": spec}
     with pytest.raises(ValueError, match="no_such_output"):
         HybridSystem(model)
+
+
+@pytest.fixture(scope="module")
+def paper_gait():
+    problem = load_problem("humanlike_6link")
+    hs = gait_system(problem)
+    fp = find_fixed_point(problem)
+    assert fp.converged and fp.valid
+    return problem, hs, fp
+
+
+def _trailing_toe_force(hs, fp) -> float:
+    """The 6-link walker's trailing toe normal force (N) at the fixed point's section state
+    (the state right after the foot-strike impact): the event that ends phase I."""
+    x = hs.section_to_full.np(fp.state, fp.parameters).ravel()
+    mode = hs.refresh_indicators("I", x, fp.parameters, dict(hs.model.initial_mode))
+    g = hs.events["I"].np(x, fp.parameters, np.array(hs.mode_vector(mode))).ravel()
+    return float(g[[e.name for e in hs.event_list["I"]].index("toe_off")])
+
+
+def test_a_phase_whose_guard_is_crossed_when_it_begins_is_invalid(paper_gait):
+    """Phase I (double support) ends when the trailing toe's normal force falls to zero. A
+    gait whose impact leaves that force negative has the toe pulling the ground: the margin
+    ``foot_strike:toe_off_ahead`` is that force right after the impact, and a negative one
+    makes the gait invalid, naming the guard."""
+    problem, hs, fp = paper_gait
+    key = "foot_strike:toe_off_ahead"
+    assert hs.margin_specs[key] == GUARD_AHEAD
+    n_toe = _trailing_toe_force(hs, fp)
+    assert n_toe > 0  # the paper's gait: the trailing toe still pushes after foot strike
+    run = Simulator(problem, hs).run(fp.state, fp.parameters, steps=1, record=False)
+    # the state right after the step's last impact, in the mode phase I begins with
+    names = [e.name for e in hs.event_list["I"]]
+    after_impact = float(hs.events["I"].np(run.final_state, fp.parameters, np.array(
+        hs.mode_vector(run.final_mode))).ravel()[names.index("toe_off")])
+    assert run.steps[0].margins[key] == pytest.approx(after_impact, rel=1e-12)
+    # the section keeps the independent coordinates only (the fixed point's state: 2e-9 off)
+    assert after_impact == pytest.approx(n_toe, rel=1e-6)
+    assert validity_failure(fp.margins, problem, hs) is None
+    why = validity_failure({**fp.margins, key: -n_toe}, problem, hs)
+    assert why is not None and why.startswith(key) and "already crossed" in why
+
+
+def test_the_nlp_keeps_each_ending_guard_on_its_near_side(paper_gait):
+    """The shooting NLP holds every segment's directional ending guard on the side before
+    its crossing, at the segment's first state and at its samples, whatever the guess does;
+    at the guess (the simulated gait) the first segment's row is the trailing toe force."""
+    problem, hs, fp = paper_gait
+    nlp = ShootingNLP(problem, fp.state, fp.parameters, hs=hs)
+    g = ca.Function("g", [nlp.w], [nlp.g])(nlp.w0).full().ravel()
+    for k, s in enumerate(nlp.specs):
+        ev = hs.event_list[s.phase][s.event]
+        if ev.kind != GUARD or ev.direction == 0 or ev.arm_above > 0:
+            continue  # a mode switch, or a guard counted only once armed
+        assert s.signs[s.event] == -ev.direction and s.ahead
+        rows = [i for i, n in enumerate(nlp.g_names) if n == f"ahead[{k}]:{ev.name}"]
+        assert len(rows) == 1 and nlp.lbg[rows[0]] == GUARD_AHEAD.nlp_slack
+        if k == 0:
+            assert g[rows[0]] == pytest.approx(_trailing_toe_force(hs, fp), rel=1e-9)
+
+
+def test_the_nlp_holds_the_mode_flags_the_simulator_reads_at_a_phase_start(paper_gait):
+    """The simulator sets a mode flag (a knee's flexing or extending damper) from the sign
+    of its event at each phase's first state; the NLP holds that sign there, so that its
+    fixed modes are the simulator's from the first RK4 step on."""
+    problem, hs, fp = paper_gait
+    nlp = ShootingNLP(problem, fp.state, fp.parameters, hs=hs)
+    g = ca.Function("g", [nlp.w], [nlp.g])(nlp.w0).full().ravel()
+    first = ca.Function("x_first", [nlp.w], [X[:, 0] for X in nlp.X]).call([nlp.w0])
+    checked = 0
+    for k, s in enumerate(nlp.specs):
+        if k and nlp.specs[k - 1].phase == s.phase:
+            continue  # a segment after a mode switch inside its phase
+        x0 = first[k].full().ravel()
+        mode = dict(zip(hs.mode_keys, s.mode, strict=True))
+        read = hs.refresh_indicators(s.phase, x0, fp.parameters, mode)
+        assert read == mode  # the guess (the simulated gait) begins each phase so
+        evs = hs.event_list[s.phase]
+        for i, sign in s.first_signs.items():
+            assert evs[i].indicator and sign == (1.0 if mode[evs[i].indicator] else -1.0)
+            rows = [j for j, n in enumerate(nlp.g_names) if n == f"first_sign[{k}]:{evs[i].name}"]
+            assert len(rows) == 1 and g[rows[0]] > 0
+            checked += 1
+    assert checked >= 2  # the swing knee's rate in phase I, the trailing knee's in III
+
+
+def test_a_guard_zero_at_its_phase_start_by_construction_is_not_crossed():
+    """The kneed walker's new swing knee is locked straight at heel strike, so the guard of
+    its knee strike (the knee angle) is zero when the swing phase begins, to rounding: the
+    knee flexes first and strikes later, and the gait stays valid."""
+    from pdw_casadi.model.margins import GUARD_ROUNDOFF
+
+    problem = load_problem("kneed_walker")
+    hs = gait_system(problem)
+    fp = find_fixed_point(problem)
+    assert fp.converged
+    ahead = {k: v for k, v in fp.margins.items() if hs.margin_specs.get(k) is GUARD_AHEAD}
+    assert "heel_strike:knee_strike_ahead" in ahead
+    assert abs(ahead["heel_strike:knee_strike_ahead"]) <= GUARD_ROUNDOFF
+    assert fp.valid and validity_failure(fp.margins, problem, hs) is None

@@ -124,10 +124,15 @@ def test_continuation_with_adapted_compliance(reference):
 
 def test_prosthesis_design_makes_the_gait_symmetric():
     """A slightly lighter right shank and foot: the designed right-leg compliance gives
-    equal step lengths and times (exactly, to the solver tolerance) on a valid gait."""
+    equal step lengths and times (exactly, to the solver tolerance) on a valid gait. The
+    atlas gait's trailing toe carries a fraction of a newton at foot strike: without holding
+    phase I's duration, 0.4 % lighter already leaves it pulling the ground (not valid)."""
     pb = atlas_problem()
-    res = design_prosthesis(pb, lighter=0.004, hold_first_phase=False,
-                             options=DesignOptions(n_min=2))
+    loose = design_prosthesis(pb, lighter=0.004, hold_first_phase=False,
+                              options=DesignOptions(n_min=2))
+    assert loose.reached and loose.fixed_point.converged and not loose.fixed_point.valid
+    assert "foot_strike:toe_off_ahead" in loose.fixed_point.failure
+    res = design_prosthesis(pb, lighter=0.004, options=DesignOptions(n_min=2))
     assert res.reached and res.fixed_point.converged and res.fixed_point.valid
     assert abs(lighter_mass(res.problem) - 0.996) < 1e-12
     assert abs(res.report["step_length_asymmetry_pct"]) < 1e-6

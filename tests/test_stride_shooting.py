@@ -244,10 +244,16 @@ def test_design_nlp_ten_percent_lighter(base):
     _design_checks(base, res, 0.1)
 
 
+#: the shipped designs predate the check that a phase begins on the near side of its guard:
+#: in one step of each stride the trailing toe pulls the ground right after foot strike
+#: (-0.36 N and -0.39 N), so they are not valid gaits (docs/results/prosthesis.md)
+TOE_PULLS = pytest.mark.xfail(strict=True, reason="the trailing toe pulls at foot strike")
+
+
 @pytest.mark.parametrize("name, lighter", [
-    ("humanlike_6link_prosthesis29", 0.289),
+    pytest.param("humanlike_6link_prosthesis29", 0.289, marks=TOE_PULLS),
     # a further per-leg walker to compile: in the slow set
-    pytest.param("humanlike_6link_prosthesis30", 0.300, marks=pytest.mark.slow)])
+    pytest.param("humanlike_6link_prosthesis30", 0.300, marks=[pytest.mark.slow, TOE_PULLS])])
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
     """The designs in data/designs (the sound leg adapting, pdw-design
     --free-sound ... --accept-verified from the atlas gait; the 30 % one with a 0.9 %

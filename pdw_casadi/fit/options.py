@@ -25,7 +25,9 @@ class FitOptions:
 
     IPOPT: ``max_iter``, ``tol``, ``hessian`` ("limited-memory": L-BFGS), ``ipopt`` extra
     options. ``rounds``: NLP solves per start; a second one is built at the first answer
-    only when the objective's sample brackets moved (``consistency_tol``).
+    only when the objective's sample brackets moved (``consistency_tol``) or its
+    re-simulation deviation is at least ``resim_tol`` (the NLP's RK4 grid, set from the
+    start's phase durations, no longer matches the simulator's).
     """
 
     hip_target: str = "hip"

@@ -3,7 +3,8 @@
 :func:`fit_rounds` is the loop every fit runs from a start (x, p): build the shooting NLP at
 (x, p), solve it (:class:`~pdw_casadi.fit.driver.FitSolver`), check the answer on the
 simulator, and build and solve once more at the answer while the NLP objective and the
-re-simulated 1 - R^2 differ by more than ``consistency_tol`` (at most ``rounds`` solves).
+re-simulated 1 - R^2 differ by more than ``consistency_tol`` or the answer's re-simulation
+deviation is at least ``resim_tol`` (at most ``rounds`` solves).
 What depends on the map is a :class:`MapFit`: the one-step fit's
 (:class:`~pdw_casadi.fit.core.StepFit`) or the per-leg fit's on the stride
 (:class:`~pdw_casadi.fit.stride_fit.StrideFit`).
@@ -84,7 +85,11 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
             break
         cand.objective = out["objective"]
         rounds.append(cand)
-        if fit.gap(cand) <= opts.consistency_tol * max(cand.objective, OBJECTIVE_FLOOR):
+        # one more round, built at the answer, when the objective's sample brackets moved or
+        # when the durations moved so far that the NLP's RK4 grid (set from the start's
+        # durations) no longer reproduces the simulator's map
+        if fit.gap(cand) <= opts.consistency_tol * max(cand.objective, OBJECTIVE_FLOOR) \
+                and cand.resimulation_deviation < opts.resim_tol:
             break
         x, p = fit.restart(cand)
     return rounds, solves, notes

@@ -322,6 +322,8 @@ class PoincareMap:
                 xp, Jx, Jp = hs.impact_jac[item.name].np(x, p)
                 S = Jx @ S + Jp @ sens.Sp
                 x = xp.ravel()
+                if mins is not None and item.mode_after is not None:
+                    self._guards_ahead(item, x, S, p, sens, mins)
         J_out = np.asarray(sens.section_out(x))
         return hs.full_to_section.np(x).ravel(), J_out @ S, dT, dT_phase
 
@@ -353,6 +355,22 @@ class PoincareMap:
             self._margin_sample(seg.phase, xe, S_end, t0 + seg.n * seg.h + seg.tau,
                                 phase_t0, phase_dur, p, mv, sens, mins)
         return xe, S_end, dT + dtau
+
+    def _guards_ahead(self, item, x, S, p, sens, mins):
+        """The guard margins of the phase that transition ``item`` enters, at its first state
+        ``x`` (sensitivity ``S``), with their gradients (see ``Simulator._guards_ahead``)."""
+        hs = self.hs
+        ahead = hs.guards_ahead[item.name]
+        if not ahead:
+            return
+        mv = list(item.mode_after)
+        mode = dict(zip(hs.mode_keys, mv, strict=True))
+        g, gx, gp = hs.event_jac[hs.transition_target[item.name]].np(x, p, mv)
+        g = np.ravel(g)
+        for i, ev, key in ahead:
+            if ev.enabled(mode):
+                d = -ev.direction
+                mins[key] = (float(d * g[i]), d * (gx[i] @ S + gp[i] @ sens.Sp))
 
     @staticmethod
     def _margin_sample(phase, x, S, t, phase_t0, phase_dur, p, mv, sens, mins):

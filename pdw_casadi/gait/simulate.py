@@ -77,9 +77,11 @@ class Segment:
 @dataclass(frozen=True)
 class TransitionItem:
     """A transition taken in a step's plan (its name: a
-    :class:`~pdw_casadi.model.hybrid.Transition`'s)."""
+    :class:`~pdw_casadi.model.hybrid.Transition`'s) and the mode vector the phase it enters
+    begins with (None: not recorded)."""
 
     name: str
+    mode_after: tuple[float, ...] | None = None
 
 
 @dataclass
@@ -382,6 +384,17 @@ class Simulator:
             g_prev[idx] = 0.0  # the event just handled must not be found again
             x = x_e
 
+    def _guards_ahead(self, tr, x, p, mode, margins) -> None:
+        """The margins of the guards of the phase that ``tr`` enters at its first state ``x``
+        (mode ``mode``): how far each enabled one is from its crossing (> 0: not crossed)."""
+        ahead = self.hs.guards_ahead[tr.name]
+        if not ahead:
+            return
+        g = self.hs.events[tr.target].np(x, p, np.array(self.hs.mode_vector(mode))).ravel()
+        for i, ev, key in ahead:
+            if ev.enabled(mode):
+                margins[key] = float(-ev.direction * g[i])
+
     def _spring(self, x, p, mv) -> float:
         return self.hs.energy_at(x, p, mv).spring
 
@@ -472,6 +485,7 @@ class Simulator:
                     sr.step_length = float(hs.step_length.np(x_end, p)[0, 0])
                 imp = hs.impact_at(tr.name, x_end, p)
                 x_plus, chk = imp.x_plus, imp.checks
+                at = len(sr.plan.items)
                 sr.plan.items.append(TransitionItem(tr.name))
                 ke = hs.energy_at(x_end, p, mv)
                 ke_post = hs.energy_at(imp.x_post, p, mv).kinetic
@@ -490,6 +504,8 @@ class Simulator:
                     x = x_end
                     break
                 new_mode = hs.refresh_indicators(tr.target, x_plus, p, new_mode)
+                sr.plan.items[at] = TransitionItem(tr.name, tuple(hs.mode_vector(new_mode)))
+                self._guards_ahead(tr, x_plus, p, new_mode, step_margins)
                 run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))
                 mode, x, phase = new_mode, x_plus, tr.target
                 if tr.ends_step:

@@ -19,7 +19,15 @@ import casadi as ca
 
 from pdw_casadi.engine.compile import HOT, INTERPRETED, Lazy
 from pdw_casadi.engine.rk4 import rk4
-from pdw_casadi.model.margins import Margin, check_key, check_margin, output_margin, phase_key
+from pdw_casadi.model.margins import (
+    GUARD_AHEAD,
+    Margin,
+    ahead_name,
+    check_key,
+    check_margin,
+    output_margin,
+    phase_key,
+)
 from pdw_casadi.model.mechanics.planar import ContactSet, PlanarSystem
 
 
@@ -306,6 +314,18 @@ class HybridSystem:
             self.check_margins[tr.name] = _declared(list(tr.checks), tr.margins, check_margin)
             self.margin_specs.update({check_key(tr.name, name): mg
                                       for _, name, mg in self.check_margins[tr.name]})
+        #: per transition: (index, event, margins-table key) of each guard of the phase it
+        #: enters that must not be crossed yet when that phase begins (directional guards
+        #: without arming; see :data:`~pdw_casadi.model.margins.GUARD_AHEAD`)
+        self.guards_ahead: dict[str, list[tuple[int, Event, str]]] = {}
+        #: transition name -> the phase it enters
+        self.transition_target = {tr.name: tr.target for tr in model.transitions}
+        for tr in model.transitions:
+            ahead = [(i, ev, check_key(tr.name, ahead_name(ev.name)))
+                     for i, ev in enumerate(self.event_list[tr.target])
+                     if ev.kind == GUARD and ev.direction != 0 and ev.arm_above <= 0]
+            self.guards_ahead[tr.name] = ahead
+            self.margin_specs.update({key: GUARD_AHEAD for _, _, key in ahead})
         e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
         # Lazy: called a few times per step by the simulator (``.np``); ``(...)`` gives DMs
         self.energy = Lazy(ca.Function("energy", [x, p, m], [e], ["x", "p", "m"], ["E"]))

@@ -34,6 +34,7 @@ class MarginKind(StrEnum):
     CLEARANCE = "clearance"  # m, swing foot above the ground
     IMPULSE = "impulse"  # N s (or m for an impulse's centre of pressure), at an impact
     ARC = "arc"  # rad, a rolling foot's contact inside its arc's span
+    GUARD_AHEAD = "guard_ahead"  # the guard's unit: a phase's guard not yet crossed at its start
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,10 @@ class Margin:
 
     def violation(self, key: str, value: float, validity: Mapping[str, float]) -> str | None:
         """Why ``value`` breaks this margin (a message naming ``key``), or None."""
+        if self.kind == MarginKind.GUARD_AHEAD:
+            return (f"{key} = {value:.3g} < 0: the guard is already crossed when its phase "
+                    "begins (the phase would end at once)") if value < -GUARD_ROUNDOFF \
+                else None
         if self.requirement is None:
             return f"{key} = {value:.3g} <= 0" if value <= 0 else None
         need = self.minimum(validity)
@@ -99,6 +104,15 @@ IMPULSE_COP = Margin(MarginKind.IMPULSE, None, "m")
 #: a rolling foot's contact angle short of its arc's span (must be > 0)
 ARC_SPAN = Margin(MarginKind.ARC, None, "rad")
 
+#: a phase's guard on its side before the crossing when the phase begins (must be > 0): a
+#: contact whose normal force is already negative right after an impact would open at once,
+#: so the phase it closes has no duration (the trailing toe pulling the ground at foot strike)
+GUARD_AHEAD = Margin(MarginKind.GUARD_AHEAD, None, "")
+#: a guard that is zero at its phase's start by construction (a straight knee's knee-strike
+#: guard right after heel strike) evaluates to rounding noise there: the phase still runs,
+#: since the simulator fires a guard only when it crosses from its near side
+GUARD_ROUNDOFF = 1e-9
+
 #: the default naming rule: output-name prefix -> margin (phase outputs)
 OUTPUT_PREFIXES = (("N_", NORMAL_FORCE), ("copmargin_", COP), ("clearance_", CLEARANCE),
                    ("arcmargin_", ARC_SPAN))
@@ -115,6 +129,11 @@ def output_margin(name: str) -> Margin | None:
 def check_margin(name: str) -> Margin | None:
     """The margin an impact check named ``name`` carries under the naming rule, or None."""
     return next((m for prefix, m in CHECK_PREFIXES if name.startswith(prefix)), None)
+
+
+def ahead_name(event: str) -> str:
+    """The check name of the guard ``event``'s :data:`GUARD_AHEAD` margin at a transition."""
+    return f"{event}_ahead"
 
 
 def phase_key(phase: str, output: str) -> str:

@@ -45,7 +45,8 @@ import casadi as ca
 import numpy as np
 
 from pdw_casadi.gait.simulate import Segment, Simulator
-from pdw_casadi.model.hybrid import GUARD, SWITCH, HybridSystem
+from pdw_casadi.model.hybrid import GUARD, SWITCH, Event, HybridSystem
+from pdw_casadi.model.margins import GUARD_AHEAD, GUARD_ROUNDOFF
 from pdw_casadi.nlp.interval import compiled_interval, interval_output_names
 
 H_MAX_FACTOR = 1.25  # largest RK4 step in the NLP, in units of the simulator's step size
@@ -72,6 +73,11 @@ class SegmentSpec:
     gaps: dict[int, float] = field(default_factory=dict)  # event index -> required |g| margin
     start: dict[int, int] = field(default_factory=dict)  # event index -> first sample checked
     cross_sign: float = 0.0  # direction of the ending event's crossing in the starting gait
+    #: event index -> required sign at the segment's first state (mode indicators: the
+    #: simulator reads them from the state when a phase begins)
+    first_signs: dict[int, float] = field(default_factory=dict)
+    #: the ending guard is held on its near side at the segment's first state
+    ahead: bool = False
     cross_rate0: float = 0.0  # its rate dg/dt there
     step: int = 0  # the step (of a stride) the segment belongs to
 
@@ -99,6 +105,12 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
         specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
                                  dur))
     return specs
+
+
+def _directional_guard(ev: Event) -> bool:
+    """Whether ``ev`` ends its phase at a crossing in one direction, counted from the
+    phase's start (the guards :data:`~pdw_casadi.model.margins.GUARD_AHEAD` checks)."""
+    return ev.kind == GUARD and ev.direction != 0 and ev.arm_above <= 0
 
 
 class ShootingNLP:
@@ -277,16 +289,29 @@ class ShootingNLP:
         """
         hs = self.hs
         n = len(self.specs)
-        fun = ca.Function("guess", [self.w], [*self.Y, *[X[:, -1] for X in self.X]])
+        fun = ca.Function("guess", [self.w], [*self.Y, *[X[:, -1] for X in self.X],
+                                              *[X[:, 0] for X in self.X]])
         vals = fun.call([self.w0])
-        for s, Y, xe in zip(self.specs, vals[:n], vals[n:], strict=True):
+        for s, Y, xe, xb in zip(self.specs, vals[:n], vals[n:2 * n], vals[2 * n:], strict=True):
             names = self.output_names(s.phase)
             g = Y.full()[len(names) - len(hs.event_list[s.phase]):, :]
             mode = dict(zip(hs.mode_keys, s.mode, strict=True))
             rate = float(self._gdot(s.phase)(xe, self.p0_steps[s.step], s.mode)[s.event])
             s.cross_sign, s.cross_rate0 = float(np.sign(rate)), rate
+            g_first = hs.events[s.phase].np(xb.full().ravel(), self.p0_steps[s.step],
+                                            s.mode).ravel()
+            # the ending guard at the segment's first state, unless it is zero there by
+            # construction (see GUARD_ROUNDOFF)
+            s.ahead = _directional_guard(hs.event_list[s.phase][s.event]) and \
+                abs(g_first[s.event]) > GUARD_ROUNDOFF
             for i, ev in enumerate(hs.event_list[s.phase]):
                 if not ev.enabled(mode):
+                    continue
+                if i == s.event and _directional_guard(ev):
+                    # the segment ends at this guard's first crossing: before it, the guard
+                    # is on its near side whatever the guess does (a guess that grazes it
+                    # would otherwise let the answer cross it early, unseen)
+                    s.signs[i] = float(-ev.direction)
                     continue
                 gi = g[i, :-1] if i == s.event else g[i]
                 if not gi.size or not (np.all(gi > 0) or np.all(gi < 0)):
@@ -300,6 +325,11 @@ class ShootingNLP:
                 gap = min(1e-3 * a.max(), 0.5 * a.min())
                 if i != s.event and a[0] > 10 * gap:
                     s.gaps[i] = gap
+                if ev.indicator:
+                    # the flag's sign at the segment's first state, unless the event fired
+                    # there (then ~0: its flag comes from the crossing direction)
+                    if np.sign(g_first[i]) == s.signs[i] and abs(g_first[i]) > 1e-3 * a.max():
+                        s.first_signs[i] = s.signs[i]
 
     # -- constraints -------------------------------------------------------------------------
     def _build_constraints(self):
@@ -347,6 +377,18 @@ class ShootingNLP:
                 if at:
                     add(sign * Y[e0 + i, at], s.gaps.get(i, 0.0), ca.inf,
                         f"sign[{k}]:{evs[i].name}")
+            y0 = hs.outputs[s.phase](X[:, 0], p, mv)  # the outputs at the segment's start
+            g0 = hs.events[s.phase](X[:, 0], p, mv)  # the events there
+            if s.ahead:
+                # ... and at the segment's first state (right after an impact: a contact
+                # whose force the impact left negative would open at once)
+                add(-evs[s.event].direction * g0[s.event], GUARD_AHEAD.nlp_slack,
+                    ca.inf, f"ahead[{k}]:{evs[s.event].name}")
+            for i, sign in s.first_signs.items():
+                # a mode flag read from the state at a phase start: the segment's mode holds
+                # from its first state on (a knee rate that the impact reversed would switch
+                # the damping within the first RK4 steps, before the first checked sample)
+                add(sign * g0[i], 0, ca.inf, f"first_sign[{k}]:{evs[i].name}")
             mv = ca.DM(s.mode)
             if evs[s.event].require is not None:
                 add(hs.require[s.phase](X[:, -1], p, mv)[s.event], 0, ca.inf,
@@ -354,7 +396,6 @@ class ShootingNLP:
             # validity margins at the samples and at the segment's start node (right after an
             # impact the contact forces jump)
             ts = self.sample_t[k]
-            y0 = hs.outputs[s.phase](X[:, 0], p, mv)
             for j, name, spec in hs.phase_margins[s.phase]:
                 need = spec.minimum(v) + spec.nlp_slack
                 if spec.active_after <= 0:

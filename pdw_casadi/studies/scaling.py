@@ -176,8 +176,9 @@ class SubjectResult:
     """A subject's walker: the problem (with the fixed point as its initial state), the
     fixed point, the continuation path [(lambda, state, theta)] (lambda 0 = the uniformly
     scaled reference, 1 = the subject), the wall time (s), whether lambda = 1 was
-    reached, the validity margins held on the way (key -> (lambda, held value)) and the
-    label of the reference gait it started from."""
+    reached with a fixed point (valid or not: ``fixed_point.valid``), the validity
+    margins held on the way (key -> (lambda, held value)) and the label of the reference
+    gait it started from."""
 
     problem: Problem
     fixed_point: object
@@ -255,7 +256,7 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     fp = find_fixed_point(body, x0=last.state, p=last.theta, tol=tol, fallback=False,
                           pmap=PoincareMap(body, hs))
     return SubjectResult(body, fp, [(lam, st.copy(), th.copy()) for lam, st, th in run.path],
-                         time.perf_counter() - t0, run.reached and fp.converged and fp.valid,
+                         time.perf_counter() - t0, run.reached and fp.converged,
                          run.held)
 
 
