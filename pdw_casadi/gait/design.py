@@ -26,6 +26,7 @@ import numpy as np
 
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
 from pdw_casadi.gait.poincare import PoincareError
+from pdw_casadi.model.margins import GUARD_AHEAD, spec_of
 
 
 class PatternLost(RuntimeError):
@@ -57,6 +58,11 @@ class DesignOptions:
     #: an extra condition with its exact gradient (step maps; see :func:`continue_design`)
     hold_margins: bool = False
     margin_headroom: float = 0.1
+    #: with ``hold_margins``: also hold the guards a phase must begin ahead of
+    #: (:data:`~pdw_casadi.model.margins.GUARD_AHEAD`); off, a path may pass through gaits
+    #: that break them (the trailing toe pulling at foot strike) and a fit restores them
+    #: at its end (:func:`~pdw_casadi.studies.scaling.nearest_stable_gait`)
+    hold_guards: bool = False
 
 
 @dataclass
@@ -220,11 +226,14 @@ class _MarginHolds:
     """The validity margins a continuation holds (``DesignOptions.hold_margins``): each
     margin that falls below its requirement is held at requirement + headroom x scale."""
 
-    def __init__(self, pmap, x0, theta0, headroom: float):
+    def __init__(self, pmap, x0, theta0, headroom: float, hold_guards: bool = False):
         from pdw_casadi.gait.fixed_point import validity_slacks
 
         self.pmap, self.headroom = pmap, headroom
-        self._slacks = lambda m: validity_slacks(m, pmap.problem, pmap.hs)
+        specs = pmap.hs.margin_specs
+        self._slacks = lambda m: {k: v for k, v in validity_slacks(m, pmap.problem,
+                                                                   pmap.hs).items()
+                                  if hold_guards or spec_of(k, specs) is not GUARD_AHEAD}
         start = self._margins(x0, theta0)
         need = {k: start[k] - s for k, s in self._slacks(start).items()}
         # a margin required > 0 only (an impulse) takes its own size at the start as scale
@@ -291,7 +300,8 @@ def continue_design(pmap, x0, theta_start, theta_end, free: Sequence[Sequence[in
     theta_end = np.asarray(theta_end, float)
     free_idx = sorted({i for idx in free for i in idx})
     first = solve_design(pmap, x0, theta_start, free, extra, options)
-    holds = (_MarginHolds(pmap, first.state, first.theta, options.margin_headroom)
+    holds = (_MarginHolds(pmap, first.state, first.theta, options.margin_headroom,
+                          options.hold_guards)
              if options.hold_margins and first.converged else None)
     grads = False
     path = [(0.0, first.state, first.theta)]
