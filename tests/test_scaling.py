@@ -189,3 +189,26 @@ def test_pdw_scale_writes_a_stable_gait_that_pdw_fixed_point_finds(tmp_path, cap
     s = json.loads((tmp_path / "fp" / "summary.json").read_text())
     assert s["converged"] and s["stable"] and s["valid"]
     assert s["spectral_radius"] <= 0.9
+
+
+def test_a_female_subject_gets_the_shipped_body_by_the_scaling_law():
+    """Every female de Leva body is one walker in dimensionless form: the shipped stable
+    body scaled to 62.45 kg, 1.695 m is de Leva's body for that subject (to rounding), and
+    its scaled gait is a fixed point there with the shipped gait's spectral radius."""
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+    from pdw_casadi.studies.scaling import (
+        shipped_body,
+        stable_subject_walker,
+        subject_anthropometry,
+    )
+
+    ref = load_problem("humanlike_6link")
+    res = stable_subject_walker(62.45, 1.695, "female", ref)
+    assert res.status == "accepted" and res.continued is None
+    want = subject_anthropometry(62.45, 1.695, "female", ref)
+    got = res.problem.anthropometry
+    assert max(abs(got[k] - v) / abs(v) for k, v in want.items() if v) < 1e-12
+    fp = find_fixed_point(res.problem, fallback=False)
+    assert fp.converged and fp.iterations == 0 and fp.stable and fp.valid
+    rho0 = find_fixed_point(shipped_body("female"), fallback=False).spectral_radius
+    assert fp.spectral_radius == pytest.approx(rho0, abs=1e-9) and fp.spectral_radius <= 0.9

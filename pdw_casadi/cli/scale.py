@@ -92,11 +92,15 @@ def scale_main(argv=None) -> int:
                                         max_radius=args.max_radius,
                                         log=lambda line: print(line, file=sys.stderr))
             cont = res.continued
-            lam = cont.path[-1][0]
+            lam = cont.path[-1][0] if cont is not None else 1.0
             if res.problem is None:
                 raise NoGait(f"{res.reason} (best of {ref.name}'s reference gaits; nothing "
                              f"written)")
             pb, rho = res.problem.replace(name=args.out.stem), res.spectral_radius
+        if args.body != "uniform" and cont is None:
+            note = (f"the shipped stable {who['sex']} de Leva body's gait carried by the "
+                    f"scaling law (exact); stable, valid")
+        elif args.body != "uniform":
             held = ", ".join(f"{k} held at {v:.4g} from lambda {lam_:g}"
                              for k, (lam_, v) in cont.held.items()) or "none held"
             stab = (f"; then the nearest gait with rho <= {args.max_radius:g} (the fit's "

@@ -403,11 +403,55 @@ def nearest_stable_gait(problem: Problem, max_radius: float = BODY_MAX_RADIUS, o
     return fit_gait(problem, target, opts, log=lambda m: None).best
 
 
+#: the walker the shipped de Leva bodies (data/bodies/deleva_<sex>.toml) were built from
+SHIPPED_BODY_REFERENCE = "humanlike_6link"
+
+
+def shipped_body(sex: str) -> Problem | None:
+    """The shipped stable gait on de Leva's body of ``sex`` (data/bodies), or None."""
+    from pdw_casadi.engine.resources import bundled_dir
+
+    path = bundled_dir("data") / "bodies" / f"deleva_{sex}.toml"
+    return load_problem(path) if path.is_file() else None
+
+
+def scaled_shipped_body(mass_kg: float, height_m: float, sex: str, reference: Problem,
+                        max_radius: float = BODY_MAX_RADIUS) -> StableSubject | None:
+    """The subject's de Leva body with a stable gait by the scaling law from the shipped
+    body of that sex: de Leva's segment lengths and masses are fractions of height and
+    mass, so every body of one sex is the same walker in dimensionless form, and the shipped
+    gait scaled (lengths x s, masses x m, times x sqrt(s)) is a gait of the subject's body
+    with the same spectral radius. None when no body of that sex is shipped, the reference
+    is not the walker it was built from (same family and name, same compliance keys), or
+    the scaled gait is not a stable (rho <= ``max_radius``), valid fixed point."""
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+
+    body = shipped_body(sex)
+    if body is None or reference.name != SHIPPED_BODY_REFERENCE or \
+            reference.family != body.family or \
+            set(reference.compliance) != set(body.compliance):
+        return None
+    fp0 = find_fixed_point(body, fallback=False)
+    s = height_m / reference_height(body, sex)
+    m = mass_kg / reference_mass(body)
+    pb = scale_problem(body, s, m, name=f"subject_{sex}_{mass_kg:g}kg_{height_m:g}m")
+    if not fp0.converged:
+        return None
+    pb = pb.with_state(scaled_state(body, fp0.state, s))
+    fp = find_fixed_point(pb, fallback=False)
+    if not (fp.converged and fp.stable and fp.valid and fp.spectral_radius <= max_radius):
+        return None
+    return StableSubject(pb.with_state(fp.state), "accepted", spectral_radius=fp.spectral_radius,
+                         valid=True, rho_continued=fp.spectral_radius)
+
+
 def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
                           reference: Problem | None = None, max_radius: float = BODY_MAX_RADIUS,
                           log=None) -> StableSubject:
     """The reference walker on a subject's de Leva body with a stable, valid gait.
 
+    0. :func:`scaled_shipped_body`: when a stable body of the subject's sex is shipped for
+       this reference, its gait carried exactly by the scaling law (no continuation, no NLP).
     1. :func:`subject_walker`: the reference's gaits, each carried exactly to the uniformly
        scaled body by the scaling law, then by continuation to the subject's proportions
        (compliance adapted), until one gets there with a valid gait. The gait it ends on
@@ -420,6 +464,12 @@ def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
     ref = reference or load_problem("humanlike_6link")
     check_scalable(ref)
     t0 = time.perf_counter()
+    shipped = scaled_shipped_body(mass_kg, height_m, sex, ref, max_radius)
+    if shipped is not None:
+        if log is not None:
+            log(f"from the shipped stable {sex} de Leva body, by the scaling law (exact)")
+        shipped.continuation_s = time.perf_counter() - t0
+        return shipped
     cont = subject_walker(mass_kg, height_m, sex, ref, log=log, own_last=True)
     t1 = time.perf_counter()
     fp = cont.fixed_point
