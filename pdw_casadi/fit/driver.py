@@ -138,7 +138,9 @@ class FitSolver:
         sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         interrupt.check()  # Ctrl-C inside IPOPT ends the solve, not the run: re-raise it
         st = solver.stats()
-        x = sol["x"].full().ravel()
+        # IPOPT relaxes bounds by about 1e-8 of their size: a compliance value at its lower
+        # bound 0 may come back as -2e-10, which is not a walker (the problem file refuses it)
+        x = np.clip(sol["x"].full().ravel(), self.lbx, self.ubx)
         f = float(sol["f"])
         if self.timing is not None:
             # the curve part: what the re-simulated R^2 is checked against
