@@ -74,6 +74,12 @@ class Event:
     def enabled(self, mode: Mode) -> bool:
         return True if self.when is None else bool(self.when(mode))
 
+    @property
+    def directional_guard(self) -> bool:
+        """Whether the event ends its phase at a crossing in one direction, counted from
+        the phase's start (a phase must begin on its near side: ``GUARD_AHEAD``)."""
+        return self.kind == GUARD and self.direction != 0 and self.arm_above <= 0
+
 
 @dataclass
 class Phase:
@@ -323,7 +329,7 @@ class HybridSystem:
         for tr in model.transitions:
             ahead = [(i, ev, check_key(tr.name, ahead_name(ev.name)))
                      for i, ev in enumerate(self.event_list[tr.target])
-                     if ev.kind == GUARD and ev.direction != 0 and ev.arm_above <= 0]
+                     if ev.directional_guard]
             self.guards_ahead[tr.name] = ahead
             self.margin_specs.update({key: GUARD_AHEAD for _, _, key in ahead})
         e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))

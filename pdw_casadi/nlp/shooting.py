@@ -45,7 +45,7 @@ import casadi as ca
 import numpy as np
 
 from pdw_casadi.gait.simulate import Segment, Simulator
-from pdw_casadi.model.hybrid import GUARD, SWITCH, Event, HybridSystem
+from pdw_casadi.model.hybrid import GUARD, SWITCH, HybridSystem
 from pdw_casadi.model.margins import GUARD_AHEAD, GUARD_ROUNDOFF
 from pdw_casadi.nlp.interval import compiled_interval, interval_output_names
 
@@ -105,12 +105,6 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
         specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
                                  dur))
     return specs
-
-
-def _directional_guard(ev: Event) -> bool:
-    """Whether ``ev`` ends its phase at a crossing in one direction, counted from the
-    phase's start (the guards :data:`~pdw_casadi.model.margins.GUARD_AHEAD` checks)."""
-    return ev.kind == GUARD and ev.direction != 0 and ev.arm_above <= 0
 
 
 class ShootingNLP:
@@ -302,12 +296,12 @@ class ShootingNLP:
                                             s.mode).ravel()
             # the ending guard at the segment's first state, unless it is zero there by
             # construction (see GUARD_ROUNDOFF)
-            s.ahead = _directional_guard(hs.event_list[s.phase][s.event]) and \
+            s.ahead = hs.event_list[s.phase][s.event].directional_guard and \
                 abs(g_first[s.event]) > GUARD_ROUNDOFF
             for i, ev in enumerate(hs.event_list[s.phase]):
                 if not ev.enabled(mode):
                     continue
-                if i == s.event and _directional_guard(ev):
+                if i == s.event and ev.directional_guard:
                     # the segment ends at this guard's first crossing: before it, the guard
                     # is on its near side whatever the guess does (a guess that grazes it
                     # would otherwise let the answer cross it early, unseen)
@@ -378,7 +372,8 @@ class ShootingNLP:
                     add(sign * Y[e0 + i, at], s.gaps.get(i, 0.0), ca.inf,
                         f"sign[{k}]:{evs[i].name}")
             y0 = hs.outputs[s.phase](X[:, 0], p, mv)  # the outputs at the segment's start
-            g0 = hs.events[s.phase](X[:, 0], p, mv)  # the events there
+            # the events there, where a row needs them
+            g0 = hs.events[s.phase](X[:, 0], p, mv) if s.ahead or s.first_signs else None
             if s.ahead:
                 # ... and at the segment's first state (right after an impact: a contact
                 # whose force the impact left negative would open at once)

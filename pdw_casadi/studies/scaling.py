@@ -432,11 +432,11 @@ def scaled_shipped_body(mass_kg: float, height_m: float, sex: str, reference: Pr
             set(reference.compliance) != set(body.compliance):
         return None
     fp0 = find_fixed_point(body, fallback=False)
+    if not fp0.converged:
+        return None
     s = height_m / reference_height(body, sex)
     m = mass_kg / reference_mass(body)
     pb = scale_problem(body, s, m, name=f"subject_{sex}_{mass_kg:g}kg_{height_m:g}m")
-    if not fp0.converged:
-        return None
     pb = pb.with_state(scaled_state(body, fp0.state, s))
     fp = find_fixed_point(pb, fallback=False)
     if not (fp.converged and fp.stable and fp.valid and fp.spectral_radius <= max_radius):
