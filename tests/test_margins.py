@@ -164,6 +164,33 @@ def test_the_nlp_keeps_each_ending_guard_on_its_near_side(paper_gait):
             assert g[rows[0]] == pytest.approx(_trailing_toe_force(hs, fp), rel=1e-9)
 
 
+def test_the_nlp_holds_every_guard_the_simulator_checks_where_a_phase_begins(paper_gait):
+    """Phase II's first segment ends on a knee's mode switch, not on heel strike: the NLP
+    still holds every directional guard of a phase at the phase's first state, as the
+    simulator checks it (``<transition>:<guard>_ahead``); at the guess the rows equal the
+    simulator's margins."""
+    problem, hs, fp = paper_gait
+    nlp = ShootingNLP(problem, fp.state, fp.parameters, hs=hs)
+    g = ca.Function("g", [nlp.w], [nlp.g])(nlp.w0).full().ravel()
+    margins = Simulator(problem, hs).run(fp.state, fp.parameters, steps=1,
+                                         record=True).steps[0].margins
+    begun = [(k, nlp.specs[k - 1].transition if k else nlp.specs[-1].transition)
+             for k in range(len(nlp.specs))]
+    begun = [(k, tr) for k, tr in begun if tr is not None]
+    assert {nlp.specs[k].phase for k, _ in begun} == set(hs.event_list)
+    switch_first = 0
+    for k, tr in begun:
+        s = nlp.specs[k]
+        checked = [(i, ev, key) for i, ev, key in hs.guards_ahead[tr] if key in margins]
+        assert checked, tr
+        switch_first += not hs.event_list[s.phase][s.event].directional_guard
+        for i, ev, key in checked:
+            rows = [j for j, n in enumerate(nlp.g_names) if n == f"ahead[{k}]:{ev.name}"]
+            assert len(rows) == 1 and margins[key] > 0
+            assert g[rows[0]] == pytest.approx(margins[key], rel=1e-6, abs=1e-9)
+    assert switch_first >= 1  # the case the rule is for: phase II begins with a switch
+
+
 def test_the_nlp_holds_the_mode_flags_the_simulator_reads_at_a_phase_start(paper_gait):
     """The simulator sets a mode flag (a knee's flexing or extending damper) from the sign
     of its event at each phase's first state; the NLP holds that sign there, so that its

@@ -76,8 +76,10 @@ class SegmentSpec:
     #: event index -> required sign at the segment's first state (mode indicators: the
     #: simulator reads them from the state when a phase begins)
     first_signs: dict[int, float] = field(default_factory=dict)
-    #: the ending guard is held on its near side at the segment's first state
-    ahead: bool = False
+    #: event indices of the directional guards held on their near side at the segment's first
+    #: state: at a phase start every guard the simulator checks there (``guards_ahead`` of the
+    #: transition that begins the phase), after a mode switch the segment's ending guard
+    ahead: tuple[int, ...] = ()
     cross_rate0: float = 0.0  # its rate dg/dt there
     step: int = 0  # the step (of a stride) the segment belongs to
 
@@ -286,7 +288,8 @@ class ShootingNLP:
         fun = ca.Function("guess", [self.w], [*self.Y, *[X[:, -1] for X in self.X],
                                               *[X[:, 0] for X in self.X]])
         vals = fun.call([self.w0])
-        for s, Y, xe, xb in zip(self.specs, vals[:n], vals[n:2 * n], vals[2 * n:], strict=True):
+        for k, (s, Y, xe, xb) in enumerate(zip(self.specs, vals[:n], vals[n:2 * n],
+                                               vals[2 * n:], strict=True)):
             names = self.output_names(s.phase)
             g = Y.full()[len(names) - len(hs.event_list[s.phase]):, :]
             mode = dict(zip(hs.mode_keys, s.mode, strict=True))
@@ -294,10 +297,15 @@ class ShootingNLP:
             s.cross_sign, s.cross_rate0 = float(np.sign(rate)), rate
             g_first = hs.events[s.phase].np(xb.full().ravel(), self.p0_steps[s.step],
                                             s.mode).ravel()
-            # the ending guard at the segment's first state, unless it is zero there by
-            # construction (see GUARD_ROUNDOFF)
-            s.ahead = hs.event_list[s.phase][s.event].directional_guard and \
-                abs(g_first[s.event]) > GUARD_ROUNDOFF
+            # the guards at the segment's first state, unless zero there by construction
+            # (see GUARD_ROUNDOFF): a phase's first segment may end on a mode switch, and the
+            # simulator checks all the phase's guards where the phase begins
+            begun_by = self.specs[k - 1].transition if k else self.specs[-1].transition
+            if begun_by is not None:
+                held = [i for i, ev, _ in hs.guards_ahead[begun_by] if ev.enabled(mode)]
+            else:
+                held = [s.event] if hs.event_list[s.phase][s.event].directional_guard else []
+            s.ahead = tuple(i for i in held if abs(g_first[i]) > GUARD_ROUNDOFF)
             for i, ev in enumerate(hs.event_list[s.phase]):
                 if not ev.enabled(mode):
                     continue
@@ -374,11 +382,11 @@ class ShootingNLP:
             y0 = hs.outputs[s.phase](X[:, 0], p, mv)  # the outputs at the segment's start
             # the events there, where a row needs them
             g0 = hs.events[s.phase](X[:, 0], p, mv) if s.ahead or s.first_signs else None
-            if s.ahead:
+            for i in s.ahead:
                 # ... and at the segment's first state (right after an impact: a contact
                 # whose force the impact left negative would open at once)
-                add(-evs[s.event].direction * g0[s.event], GUARD_AHEAD.nlp_slack,
-                    ca.inf, f"ahead[{k}]:{evs[s.event].name}")
+                add(-evs[i].direction * g0[i], GUARD_AHEAD.nlp_slack, ca.inf,
+                    f"ahead[{k}]:{evs[i].name}")
             for i, sign in s.first_signs.items():
                 # a mode flag read from the state at a phase start: the segment's mode holds
                 # from its first state on (a knee rate that the impact reversed would switch
