@@ -184,7 +184,7 @@ def test_the_nlp_holds_every_guard_the_simulator_checks_where_a_phase_begins(pap
         checked = [(i, ev, key) for i, ev, key in hs.guards_ahead[tr] if key in margins]
         assert checked, tr
         switch_first += not hs.event_list[s.phase][s.event].directional_guard
-        for i, ev, key in checked:
+        for _, ev, key in checked:
             rows = [j for j, n in enumerate(nlp.g_names) if n == f"ahead[{k}]:{ev.name}"]
             assert len(rows) == 1 and margins[key] > 0
             assert g[rows[0]] == pytest.approx(margins[key], rel=1e-6, abs=1e-9)
