@@ -73,7 +73,11 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
 
 
 def _ignore_sigint() -> None:
+    """A pool worker's signals: Ctrl-C is the parent's to handle, and SIGTERM (the pool's
+    terminate()) ends the worker as the default does: a forked worker would otherwise keep
+    the command's handler, which raises, and print a traceback while it exits."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _dask_map(fn, items, scheduler: str, ordered: bool = True):
