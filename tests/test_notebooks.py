@@ -20,6 +20,7 @@ OPENSIM = importlib.util.find_spec("opensim") is not None
                                           ("02_fit_your_gait.ipynb", 2 if OPENSIM else 1),
                                           ("03_slope_sweep.ipynb", 3),
                                           ("04_humanlike_timing.ipynb", 1),
+                                          ("06_cohort.ipynb", 2),
                                           # a stride NLP design (IPOPT) and a subject
                                           # continuation: about 2 min, so in the slow run
                                           pytest.param("05_prosthesis_design.ipynb", 1,
