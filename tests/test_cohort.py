@@ -301,6 +301,10 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
     assert all(isinstance(r, str) and r for r in pool.loc[pool["status"] != "accepted",
                                                            "reason"])
     assert "2 fits:" in out
+    # each fit keeps IPOPT's log of its solve, ending with IPOPT's verdict
+    for fit_id, iterations in zip(pool["fit_id"], pool["iterations"], strict=True):
+        log = (tmp_path / "pool" / "fits" / fit_id / "ipopt.log").read_text()
+        assert "EXIT:" in log and f"Number of Iterations....: {iterations:.0f}" in log
     # the same fits on a Dask LocalCluster, given by its address
     with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1,
                                   dashboard_address=None) as cluster:

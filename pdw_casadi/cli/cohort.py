@@ -112,7 +112,7 @@ def cohort_main(argv: Sequence[str] | None = None) -> int:
     with a ``file`` column and optional ``subject_id``, ``condition``, ``mass_kg``,
     ``height_m``, ``sex``, ``speed_m_s``). Fits run on a local process pool (``--workers``,
     default one per CPU) or a Dask cluster (``--scheduler``), the same results either way.
-    Writes ``fits/<fit_id>/result.json`` (and ``curves.csv``) as each fit ends, then
+    Writes ``fits/<fit_id>/result.json`` (and ``curves.csv``, ``ipopt.log``) as each fit ends, then
     ``cohort.csv`` (and ``cohort.parquet`` with pyarrow), ``r2_by_subject.png`` and
     ``compliance.png``. Run again, the command skips the fits already complete. Exit code 1
     (with the table written) when a fit found no stable valid gait.

@@ -8,9 +8,10 @@ process, on a local process pool or on a Dask cluster), then writes the table.
 
 Each fit is a pure function of its task (:func:`run_fit_task`): the same rows from every
 backend. Its outcome, whatever it is (an accepted gait, a rejected candidate, no candidate,
-an exception), is saved as soon as it arrives in ``fits/<fit_id>/result.json``, written
-atomically (a temporary file renamed over it), with a fingerprint of everything the fit
-depends on (the curve file's bytes, the walker, the options, the toolkit's version). A
+an exception), is saved as soon as it arrives in ``fits/<fit_id>/result.json`` (with
+``curves.csv`` and IPOPT's ``ipopt.log``), written atomically (a temporary file renamed
+over it), with a fingerprint of everything the fit depends on (the curve file's bytes, the
+walker, the options, the toolkit's version). A
 later run with the same fingerprint skips the fit; a fit cut off (Ctrl-C, a crash, a killed
 machine) left no ``result.json`` and runs again, as does one whose inputs changed. The table
 is always assembled from those files, so a resumed run and an uninterrupted one write the
@@ -47,6 +48,7 @@ import math
 import os
 import re
 import signal
+import tempfile
 import threading
 import time
 import tomllib
@@ -94,6 +96,9 @@ HEIGHT_RANGE_M = (1.2, 2.2)
 SEX_CODES = {"f": "female", "female": "female", "m": "male", "male": "male"}
 RESULT_FILE = "result.json"
 CURVES_FILE = "curves.csv"
+#: IPOPT's own log of every solve of the fit (written by the process that saves the fit: a
+#: Dask worker on another machine returns the text with the record)
+LOG_FILE = "ipopt.log"
 
 
 @dataclass
@@ -579,10 +584,15 @@ def run_fit_task(task: FitTask) -> dict:
     row = _id_row(e, task.body)
     if e.kind == "sides":
         row["side"] = task.options.side
-    with interrupts_noted() as interrupted:
-        fit_row, curves, error = _fit_entry(task)
-    if interrupted():  # an interrupted fit is never saved: the next run redoes it
-        raise KeyboardInterrupt
+    with tempfile.TemporaryDirectory(prefix="pdw_cohort_") as tmp:
+        log = Path(tmp) / LOG_FILE
+        with interrupts_noted() as interrupted:
+            fit_row, curves, error = _fit_entry(
+                dataclasses.replace(task, options=dataclasses.replace(task.options,
+                                                                      log_file=str(log))))
+        if interrupted():  # an interrupted fit is never saved: the next run redoes it
+            raise KeyboardInterrupt
+        log_text = log.read_text(errors="replace") if log.is_file() else ""
     if error is not None:
         row.update(status="failed", reason=error)
     else:
@@ -591,7 +601,8 @@ def run_fit_task(task: FitTask) -> dict:
     row["cpu_time_s"] = time.process_time() - c0
     return {"fit_id": e.fit_id, "fingerprint": task.fingerprint, "row": jsonable(row),
             "curves": None if curves is None else jsonable(
-                {c: curves[c].to_numpy() for c in curves.columns})}
+                {c: curves[c].to_numpy() for c in curves.columns}),
+            "ipopt_log": log_text}
 
 
 def _fit_entry(task: FitTask):
@@ -627,13 +638,16 @@ def write_atomic(path: Path, text: str) -> None:
 
 
 def save_fit(out: Path, record: dict) -> Path:
-    """Save a fit's record: ``fits/<fit_id>/curves.csv`` (when it has curves) first, then
-    ``result.json`` (the mark of a complete fit)."""
+    """Save a fit's record: ``fits/<fit_id>/curves.csv`` (when it has curves) and
+    ``ipopt.log`` (IPOPT's log of its solves, when it ran any) first, then ``result.json``
+    (the mark of a complete fit)."""
     d = Path(out) / "fits" / record["fit_id"]
     d.mkdir(parents=True, exist_ok=True)
     if record.get("curves") is not None:
         write_atomic(d / CURVES_FILE, pd.DataFrame(record["curves"]).to_csv(index=False))
-    stored = {k: v for k, v in record.items() if k != "curves"}
+    if record.get("ipopt_log"):
+        write_atomic(d / LOG_FILE, record["ipopt_log"])
+    stored = {k: v for k, v in record.items() if k not in ("curves", "ipopt_log")}
     stored["has_curves"] = record.get("curves") is not None
     write_atomic(d / RESULT_FILE, json.dumps(stored, indent=1, allow_nan=False) + "\n")
     return d / RESULT_FILE
