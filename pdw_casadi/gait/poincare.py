@@ -252,8 +252,9 @@ class PoincareMap:
         theta = self.default_parameters() if p is None else np.asarray(p, float).ravel()
         ps = self.step_parameters(theta)
         rs, xk = [], np.asarray(x, float).ravel()
-        for pk in ps:
-            rs.append(self.evaluate_step(xk, pk, jacobian, record, margins))
+        for k, pk in enumerate(ps):
+            rs.append(self.evaluate_step(xk, pk, jacobian, record, margins,
+                                         p_next=ps[(k + 1) % len(ps)]))
             xk = rs[-1].x_next
         sim = _merged([r.sim for r in rs])
         T = rs[0].step_time
@@ -271,12 +272,17 @@ class PoincareMap:
                          step_parameters=ps)
 
     def evaluate_step(self, x, p=None, jacobian: bool = True, record: bool = False,
-                      margins: bool = False, margin_gradients: bool = False) -> MapResult:
+                      margins: bool = False, margin_gradients: bool = False,
+                      p_next=None) -> MapResult:
         """One step of the walker from section state ``x`` with the step's role parameters
-        ``p`` (default: the problem's); the arguments as :meth:`evaluate`."""
+        ``p`` (default: the problem's); the arguments as :meth:`evaluate`. ``p_next``: the
+        next step's parameters (default ``p``), with which the guards of the phase that the
+        step's last impact enters are checked."""
         p = self.problem.parameter_vector() if p is None else np.asarray(p, float).ravel()
         x = np.asarray(x, float).ravel()
-        res = self.sim.run(x, p, steps=1, record=record, margins=margins)
+        if margin_gradients and p_next is not None and not np.array_equal(p_next, p):
+            raise ValueError("margin gradients are those of a one-step map (p_next = p)")
+        res = self.sim.run(x, p, steps=1, record=record, margins=margins, p_after=p_next)
         if res.failure is not None:
             raise PoincareError(res.failure)
         sr = res.steps[0]

@@ -404,7 +404,8 @@ class Simulator:
     # -- whole steps -----------------------------------------------------------------------
     def run(self, x_section, p, steps: int = 1, record: bool = True,
             mode: dict | None = None, progress=None, margins: bool = False,
-            max_samples: int | None = None, p_steps=None) -> SimulationResult:
+            max_samples: int | None = None, p_steps=None,
+            p_after=None) -> SimulationResult:
         """Simulate ``steps`` steps from section state ``x_section`` with parameters ``p``.
 
         ``record``: build the trajectory DataFrame (and the steps' validity margins);
@@ -415,7 +416,9 @@ class Simulator:
         (:class:`Failure`), never with a physical failure reason.
         ``p_steps``: a list of parameter vectors used in turn, step k with
         ``p_steps[k % len(p_steps)]`` (a walker whose legs differ: pdw_casadi.gait.stride);
-        ``p`` is then ignored.
+        ``p`` is then ignored. ``p_after``: the parameters of the step that would follow the
+        last one (default: the next in turn); the phase a step's last impact enters belongs
+        to the next step, so its guards are checked with that step's parameters.
         """
         hs = self.hs
         model = hs.model
@@ -503,9 +506,15 @@ class Simulator:
                     failure = Failure(new_mode, k, t, phase, "mode rule broken at " + tr.name)
                     x = x_end
                     break
-                new_mode = hs.refresh_indicators(tr.target, x_plus, p, new_mode)
+                # the phase entered belongs to the next step when the impact ends this one
+                # (a per-leg walker: the legs' parameters swap roles there)
+                p_enter = p
+                if tr.ends_step:
+                    p_enter = ps[(k + 1) % len(ps)] if p_after is None or k + 1 < steps \
+                        else np.asarray(p_after, dtype=float).ravel()
+                new_mode = hs.refresh_indicators(tr.target, x_plus, p_enter, new_mode)
                 sr.plan.items[at] = TransitionItem(tr.name, tuple(hs.mode_vector(new_mode)))
-                self._guards_ahead(tr, x_plus, p, new_mode, step_margins)
+                self._guards_ahead(tr, x_plus, p_enter, new_mode, step_margins)
                 run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))
                 mode, x, phase = new_mode, x_plus, tr.target
                 if tr.ends_step:
