@@ -61,15 +61,37 @@ def map_tasks(fn: Callable[[T], R], items: Iterable[T], workers: int = 1,
         # once (Ctrl-C, a failed task, the consumer stopping) without tracebacks; the
         # workers ignore Ctrl-C themselves, the parent stops them. chunksize 1: a task is
         # handed out only when a worker is free (a worker never holds queued tasks)
-        with _pool_context().Pool(processes=min(workers, len(items)),
-                                  initializer=_ignore_sigint) as pool:
+        pool = _pool_context().Pool(processes=min(workers, len(items)),
+                                    initializer=_ignore_sigint)
+        done = False
+        try:
             if ordered:
                 yield from pool.imap(fn, items)
             else:
                 yield from pool.imap_unordered(fn, items, chunksize=1)
+            done = True
+        finally:
+            _shut_down(pool, done)
     else:
         for item in items:
             yield fn(item)
+
+
+def _shut_down(pool, done: bool) -> None:
+    """End ``pool``: after all its tasks, close and join (the workers leave on the task
+    handler's sentinels); otherwise (an error, Ctrl-C, the consumer stopping) terminate.
+    ``Pool.terminate()`` after finished work can hang for good: it kills the workers
+    while the task handler still sends them sentinels (CPython issues 78178 and 96995;
+    one test run in several hundred hung here with the pool's context manager)."""
+    if not done:
+        pool.terminate()
+        return
+    try:
+        pool.close()
+        pool.join()
+    except BaseException:  # Ctrl-C while the workers leave
+        pool.terminate()
+        raise
 
 
 def _ignore_sigint() -> None:
