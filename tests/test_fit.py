@@ -135,3 +135,48 @@ def test_point_foot_kneed_walker_fits_its_slope(tmp_path):
     assert code == 0 and s["stable"] and s["valid"]
     assert s["resimulation_deviation"] < 1e-6
     assert s["r2_hip"] > 0.3  # the slope is fitted: the problem file's own gives 0.135
+
+
+def test_progress_keeps_the_lowest_objective_iterate_that_holds_every_row():
+    """The iteration callback's best feasible iterate: the lowest objective among iterates
+    whose largest row or bound violation is within the tolerance; an infeasible iterate and
+    one whose (capped) stability row is NaN never count, however low their objective."""
+    import casadi as ca
+
+    from pdw_casadi.nlp.driver import Progress
+
+    lbg, ubg = np.array([0.0, -np.inf]), np.array([0.0, 0.9])
+    lbx, ubx = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
+    prog = Progress(2, 2, lbg, ubg, lbx, ubx, lambda x: {}, True, None, feasible_tol=1e-6)
+    names = ca.nlpsol_out()
+
+    def it(f, g, x):
+        d = {"f": f, "g": np.array(g), "x": np.array(x)}
+        return prog.eval([d.get(n, np.zeros(0)) for n in names])
+
+    it(2.0, [1e-7, 0.89], [0.1, 0.2])          # feasible
+    it(1.0, [1e-3, 0.89], [0.3, 0.4])          # a continuity row off by 1e-3
+    it(1.5, [-5e-7, 0.9], [0.5, 0.6])          # feasible, lower
+    it(0.5, [0.0, float("nan")], [0.7, 0.8])   # the row above its cap
+    it(0.4, [0.0, 0.89], [1.5, 0.0])           # outside a bound
+    best = prog.best_feasible
+    assert best.iteration == 2 and best.objective == 1.5
+    assert np.array_equal(best.x, [0.5, 0.6])
+
+
+def test_a_fit_stopped_at_its_iteration_limit_gives_its_best_feasible_iterate(problem):
+    """IPOPT stopped one iteration short of convergence on the bundled file: the fit's
+    answer is the best iterate that held every row to IPOPT's tolerance, marked not
+    certified; the simulator finds the same gait there (re-simulation within its tolerance,
+    stable, valid) and its re-simulated 1 - R^2 is the NLP objective at that iterate."""
+    opts = FitOptions(verbose=False, max_iter=15)
+    res = fit_gait(problem, load_gait_curves("female_fast.csv"), opts, log=lambda m: None)
+    solve = res.solves[-1]
+    assert solve.status == "Maximum_Iterations_Exceeded"
+    assert solve.fallback_iteration is not None
+    best = res.best
+    assert best is not None and not best.certified
+    assert best.stable and best.valid and best.fixed_point.spectral_radius <= opts.max_radius
+    resim = sum(1 - best.scores[f"r2_{t}"] for t in opts.targets())
+    assert abs(resim - best.objective) <= opts.consistency_tol * best.objective
+    assert any("not certified optimal" in n for n in res.notes)

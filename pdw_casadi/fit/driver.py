@@ -116,7 +116,8 @@ class FitSolver:
                                opts.log_file)
         progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
                              self.ubx, self.r2_of, self.row is not None,
-                             self.log if opts.verbose else None)
+                             self.log if opts.verbose else None,
+                            feasible_tol=opts.tol if opts.keep_best_feasible else None)
         solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
                            {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
                             "jac_g": self.jac_g,
@@ -138,10 +139,18 @@ class FitSolver:
         sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         interrupt.check()  # Ctrl-C inside IPOPT ends the solve, not the run: re-raise it
         st = solver.stats()
+        success = succeeded(st["return_status"])
+        x = np.asarray(sol["x"]).ravel()
+        best = progress.best_feasible
+        fallback = None if success or best is None else best.iteration
+        if fallback is not None:
+            # a solve stopped short of convergence (iteration limit, restoration failure):
+            # its best iterate that holds every row, for the simulator to check
+            x = best.x
         # IPOPT relaxes bounds by about 1e-8 of their size: a compliance value at its lower
         # bound 0 may come back as -2e-10, which is not a walker (the problem file refuses it)
-        x = np.clip(sol["x"].full().ravel(), self.lbx, self.ubx)
-        f = float(sol["f"])
+        x = np.clip(x, self.lbx, self.ubx)
+        f = best.objective if fallback is not None else float(sol["f"])
         if self.timing is not None:
             # the curve part: what the re-simulated R^2 is checked against
             f -= float(self.timing(x[: self.n_w]))
@@ -150,5 +159,8 @@ class FitSolver:
         return {"w": x[: self.n_w], "objective": f,
                 "status": st["return_status"],
                 "iterations": int(st["iter_count"]), "wall_time_s": time.perf_counter() - t0,
-                "success": succeeded(st["return_status"]),
+                "success": success,
+                #: the iteration whose iterate ``w`` is when the solve did not succeed (None:
+                #: ``w`` is IPOPT's answer, or there was no feasible iterate)
+                "fallback_iteration": fallback,
                 "history": progress.history}

@@ -90,6 +90,12 @@ class FitOptions:
     #: with the timing target on, every segment may grow this much (s): double support must
     #: be free to grow from a few ms to tens of ms within one solve
     timing_headroom_s: float = 0.06
+    #: when IPOPT stops short of convergence (its iteration limit, a failed restoration), the
+    #: fit checks its lowest-objective iterate that held every row and bound to ``tol`` on
+    #: the simulator instead of reporting no gait; such an answer is marked not certified
+    #: (:attr:`~pdw_casadi.fit.result.Candidate.certified`): stable and valid as checked, but
+    #: not shown to be the NLP's optimum
+    keep_best_feasible: bool = True
     resim_steps: int = 20  # steps of the re-simulation check
     resim_tol: float = 1e-6  # largest accepted re-simulation deviation (rad, rad/s)
     verbose: bool = True  # one progress line per IPOPT iteration

@@ -28,6 +28,9 @@ class Solve:
     objective: float
     spectral_radius: float = float("nan")
     nlp_radius_bound: float = float("nan")  # the NLP's stability row at its answer
+    #: the iteration whose feasible iterate stands for the answer of a solve that stopped
+    #: short of convergence (None: IPOPT's own answer)
+    fallback_iteration: int | None = None
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)
@@ -47,6 +50,9 @@ class Candidate:
     resimulation_deviation: float
     objective: float
     resim_tol: float = FitOptions.resim_tol
+    #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
+    #: stopped short (checked the same way, not shown to be the NLP's optimum)
+    certified: bool = True
 
     @property
     def stable(self) -> bool:
@@ -82,7 +88,7 @@ class FitResult:
                          "spectral_radius": c.fixed_point.spectral_radius,
                          "stable": c.stable, "valid": c.valid,
                          "resimulation_deviation": c.resimulation_deviation,
-                         "failure": c.fixed_point.failure})
+                         "certified": c.certified, "failure": c.fixed_point.failure})
         return pd.DataFrame(rows)
 
 

@@ -59,7 +59,10 @@ class MapFit(Protocol):
 def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
     """The rounds of one start (x: section state, p: the map's parameters): (every round's
     checked candidate, the IPOPT solves, notes). A round whose NLP cannot be built, whose
-    solve fails or whose answer has no fixed point of the simulator ends the rounds."""
+    solve fails or whose answer has no fixed point of the simulator ends the rounds. A solve
+    that stops short of convergence but passed through iterates that held every row
+    (``FitOptions.keep_best_feasible``) gives the best of them, checked like an answer and
+    marked not certified; it ends the rounds too."""
     rounds, solves, notes = [], [], []
     period = "" if fit.steps == 1 else "stride "
     for rnd in range(opts.rounds):
@@ -71,20 +74,33 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
             break
         log(fit.describe(nlp, rnd))
         out = fit.solver(nlp).solve(nlp.w0)
-        cand = fit.check(nlp, out) if out["success"] else None
+        fallback = out.get("fallback_iteration")
+        usable = out["success"] or fallback is not None
+        cand = fit.check(nlp, out) if usable else None
         rho = cand.fixed_point.spectral_radius if cand else math.nan
         hist = out["history"]
+        at = hist[fallback] if fallback is not None else (hist[-1] if hist else None)
         solves.append(Solve(fit.start, rnd, out["status"], out["iterations"],
                             out["wall_time_s"], out["objective"], rho,
-                            hist[-1].spectral_bound if hist else math.nan))
+                            at.spectral_bound if at else math.nan, fallback))
         log(fit.outcome(rnd, out, rho, cand))
+        if fallback is not None:
+            notes.append(f"{fit.where(rnd)}: {out['status']}; its best feasible iterate "
+                         f"(iteration {fallback}, objective {out['objective']:.5f}) "
+                         + ("checked on the simulator, not certified optimal" if cand else
+                            f"has no {period}fixed point of the simulator"))
+            log(notes[-1])
         if cand is None:
-            notes.append(f"{fit.where(rnd)}: {out['status']}"
-                         + (f"; no {period}fixed point of the simulator there"
-                            if out["success"] else ""))
+            if fallback is None:
+                notes.append(f"{fit.where(rnd)}: {out['status']}"
+                             + (f"; no {period}fixed point of the simulator there"
+                                if out["success"] else ""))
             break
         cand.objective = out["objective"]
+        cand.certified = out["success"]
         rounds.append(cand)
+        if not out["success"]:
+            break
         # one more round, built at the answer, when the objective's sample brackets moved or
         # when the durations moved so far that the NLP's RK4 grid (set from the start's
         # durations) no longer reproduces the simulator's map

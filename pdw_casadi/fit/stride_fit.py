@@ -92,6 +92,9 @@ class StrideCandidate:
     objective: float = math.nan
     resim_tol: float = FitOptions.resim_tol
     max_radius: float = FitOptions.max_radius ** 2
+    #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
+    #: stopped short (checked the same way, not shown to be the NLP's optimum)
+    certified: bool = True
 
     @property
     def stable(self) -> bool:

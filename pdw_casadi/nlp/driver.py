@@ -120,16 +120,32 @@ def capped(v: float, cap: list | None) -> float:
     return math.nan if cap and cap[0] is not None and v > cap[0] else v
 
 
+@dataclass
+class FeasibleIterate:
+    """The lowest-objective IPOPT iterate that held every row and bound to the feasibility
+    tolerance: its iteration, objective and unknowns."""
+
+    iteration: int
+    objective: float
+    x: np.ndarray
+
+
 class Progress(ca.Callback):
     """IPOPT iteration callback: one :class:`Iterate` per iteration to ``log``; asks IPOPT
     to stop (``User_Requested_Stop``) once Ctrl-C or SIGTERM is pending, so the solve ends
-    within an iteration and the caller's :func:`pdw_casadi.engine.interrupt.check` raises."""
+    within an iteration and the caller's :func:`pdw_casadi.engine.interrupt.check` raises.
+    With ``feasible_tol`` it keeps :attr:`best_feasible`, the lowest-objective iterate whose
+    largest row or bound violation (in the rows' own units) is at most ``feasible_tol``: what
+    a solve that stops short of convergence still has to offer."""
 
-    def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log):
+    def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log,
+                 feasible_tol: float | None = None):
         ca.Callback.__init__(self)
         self.n, self.m = n, m
         self.lbg, self.ubg, self.lbx, self.ubx = lbg, ubg, lbx, ubx
         self.r2_of, self.has_row, self.log = r2_of, has_row, log
+        self.feasible_tol = feasible_tol
+        self.best_feasible: FeasibleIterate | None = None
         self.t0 = time.perf_counter()
         self.iter = 0
         self.history: list[Iterate] = []
@@ -168,6 +184,10 @@ class Progress(ca.Callback):
                      float(g[-1]) if self.has_row else float("nan"),
                      time.perf_counter() - self.t0)
         self.history.append(it)
+        # NaN (a capped stability row) is never feasible: the comparison is False
+        if self.feasible_tol is not None and inf <= self.feasible_tol and np.isfinite(g).all() and (
+                self.best_feasible is None or it.objective < self.best_feasible.objective):
+            self.best_feasible = FeasibleIterate(self.iter, it.objective, x.copy())
         self.iter += 1
         if self.log is not None:
             self.log(it.line())

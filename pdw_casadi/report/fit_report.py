@@ -41,6 +41,14 @@ def _scores(d: dict) -> dict:
     return {k: d[k] for k in ("r2_knee", "r2_hip", "r2_thigh") if k in d}
 
 
+def uncertified_note(cand) -> str:
+    """The headline's plain word on an answer that IPOPT did not certify ("" otherwise)."""
+    if cand.certified:
+        return ""
+    return ("; NOT CERTIFIED OPTIMAL: IPOPT stopped short of convergence, this is its best "
+            "feasible iterate, checked on the simulator (a better fit may exist)")
+
+
 def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
     """The best stable valid candidate, else the best candidate at all (flagged)."""
     if res.best is not None:
@@ -151,6 +159,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             "speed_m_s": fp.step_length_m / fp.step_time_s,
             "resimulation_deviation": cand.resimulation_deviation,
             "resimulation_steps": opts.resim_steps, "accepted": ok,
+            "certified": cand.certified,
             "timing": None if fit_timing is None else fit_timing.to_dict()})
         sim = Simulator(problem)
         two = sim.run(cand.state, cand.parameters, steps=2, record=True)
@@ -187,7 +196,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
                else "")
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
             f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
-            f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}")
+            f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}" + uncertified_note(cand))
     summary["units"] = summary_units(summary, hybrid_system(problem))
     write_json(out / "summary.json", summary)
     return summary

@@ -22,6 +22,7 @@ from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitOptions, StrideF
 from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
+from pdw_casadi.report.fit_report import uncertified_note
 from pdw_casadi.report.plots import plot_fit
 
 JOINTS = ("knee", "hip", "thigh")
@@ -167,7 +168,8 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
             "step_spectral_radius_equivalent": float(np.sqrt(fp.spectral_radius)),
             "stable": bool(cand.stable), "valid": bool(cand.valid), "failure": fp.failure,
             "margins": fp.margins, "resimulation_deviation": cand.resimulation_deviation,
-            "resimulation_steps": opts.resim_steps, "objective": cand.objective})
+            "resimulation_steps": opts.resim_steps, "objective": cand.objective,
+            "certified": cand.certified})
     head = (f"# Per-leg fit of {problem.name} to {Path(str(sides.source)).name}\n\n"
             f"Objective: the sum over both legs of 1 - R^2 of knee and {res.targets[1]}, each "
             f"leg over its own gait cycle against its side's curves (101 points); free: "
@@ -183,7 +185,7 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
             f"{r2}   step-length / step-time asymmetry "
             f"{cand.report['step_length_asymmetry_pct']:+.2f} / "
             f"{cand.report['step_time_asymmetry_pct']:+.2f} %   stride radius "
-            f"{cand.fixed_point.spectral_radius:.4f} ({verdict})")
+            f"{cand.fixed_point.spectral_radius:.4f} ({verdict})" + uncertified_note(cand))
     summary["units"] = summary_units(summary, stride_map(problem).hs)
     # here the legs are the physical legs, not the step's stance and swing roles
     summary["units"]["legs"] = (

@@ -33,6 +33,8 @@ R^2 per curve (``r2_knee``, ``r2_hip``, ``r2_thigh``; a per-side fit also per le
 gait's timing (``step_time_s``, ``step_length_m``, ``speed_m_s``, ``stance_pct``,
 ``double_support_pct``); ``spectral_radius`` (per step; a stride's per-step equivalent, the
 square root of ``stride_spectral_radius``); solver ``iterations`` and ``solver_status``;
+``certified`` (False: the solve stopped short of convergence and the gait is its best
+feasible iterate, checked the same way);
 ``wall_time_s`` and ``cpu_time_s`` (the fit's own, in its worker: on shared cores the
 CPU time is what the fit cost, the wall time what it waited).
 """
@@ -507,7 +509,8 @@ def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
     row.update(slope_rad=slope, spectral_radius=fp.spectral_radius,
                stride_spectral_radius=fp.spectral_radius ** 2,
                stable=bool(cand.stable and fp.spectral_radius <= opts.max_radius),
-               valid=bool(cand.valid), resimulation_deviation=cand.resimulation_deviation,
+               valid=bool(cand.valid), certified=bool(cand.certified),
+               resimulation_deviation=cand.resimulation_deviation,
                step_time_s=fp.step_time_s, step_length_m=fp.step_length_m,
                speed_m_s=fp.step_length_m / fp.step_time_s)
     timing = fixed_point_timing(problem, cand.state, cand.parameters)
@@ -553,7 +556,7 @@ def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions)
     row.update(slope_rad=float(cand.theta[names.index("slope")]),
                spectral_radius=math.sqrt(fp.spectral_radius),
                stride_spectral_radius=fp.spectral_radius,
-               stable=bool(cand.stable), valid=bool(cand.valid),
+               stable=bool(cand.stable), valid=bool(cand.valid), certified=bool(cand.certified),
                resimulation_deviation=cand.resimulation_deviation,
                step_time_s=float(np.mean([legs[s]["step_time_s"] for s in SIDES])),
                step_length_m=float(np.mean([legs[s]["step_length_m"] for s in SIDES])),
@@ -882,7 +885,7 @@ RESULT_ORDER = ("status", "reason", "r2_knee", "r2_hip", "r2_thigh", "r2_knee_le
                 "r2_knee_right", "r2_hip_left", "r2_hip_right", "r2_thigh_left",
                 "r2_thigh_right")
 TAIL_ORDER = ("slope_rad", "spectral_radius", "stride_spectral_radius", "stable", "valid",
-              "resimulation_deviation", "step_time_s", "step_length_m", "speed_m_s",
+              "certified", "resimulation_deviation", "step_time_s", "step_length_m", "speed_m_s",
               "stance_pct", "double_support_pct", "step_length_asymmetry_pct",
               "step_time_asymmetry_pct", "solver_status", "iterations", "solves",
               "wall_time_s", "cpu_time_s")
