@@ -158,7 +158,9 @@ class FitSolver:
             f -= float(self.extra(x[: self.n_w]))
         return {"w": x[: self.n_w], "objective": f,
                 "status": st["return_status"],
-                "iterations": int(st["iter_count"]), "wall_time_s": time.perf_counter() - t0,
+                # IPOPT leaves iter_count unset when it never iterated (an invalid option)
+                "iterations": int(st["iter_count"]) if progress.history else 0,
+                "wall_time_s": time.perf_counter() - t0,
                 "success": success,
                 #: the iteration whose iterate ``w`` is when the solve did not succeed (None:
                 #: ``w`` is IPOPT's answer, or there was no feasible iterate)

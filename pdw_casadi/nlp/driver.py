@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import casadi as ca
@@ -66,7 +67,7 @@ class Iterate:
 
     def line(self) -> str:
         r2 = "  ".join(f"{k} {v:.4f}" for k, v in self.r2.items())
-        rho = "" if np.isnan(self.spectral_bound) else f"  rho32 {self.spectral_bound:.4f}"
+        rho = "" if np.isnan(self.spectral_bound) else f"  stability row {self.spectral_bound:.4f}"
         return (f"iter {self.iteration:4d}  objective {self.objective:.5f}  "
                 f"inf {self.infeasibility:.1e}  {r2}{rho}  {self.elapsed_s:6.1f} s")
 
@@ -84,6 +85,9 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
     per core)."""
     P = ca.MX.sym("p", 0, 1)
     dense = ca.Sparsity.dense
+    if nlp is not None and row is not None:
+        return _overlapped(x, f, g_base, row, n_w, StructuredJacobian(nlp, g_base, x, threads),
+                           cap, P)
     if nlp is not None:
         structured = StructuredJacobian(nlp, g_base, x, threads).function("fit_jac_base")
         g, J = g_base, structured(x)
@@ -97,14 +101,7 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
             return [ca.DM(row.gradient(np.asarray(a[0]).ravel()[:n_w])).T]
 
         grad = NumericFunction("stability_gradient", [dense(n, 1)], [dense(1, n_w)], gradient)
-        # the row's own Jacobian serves CasADi's derived functions (the Lagrangian gradient
-        # at the answer); IPOPT's constraint Jacobian comes from ``jac_g`` below
-        value = NumericFunction(
-            "stability_row", [dense(n, 1)], [dense(1, 1)],
-            lambda a: [capped(row.value(np.asarray(a[0]).ravel()[:n_w]), cap)],
-            lambda name: NumericFunction(
-                name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
-                lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
+        value = _row_value(row, n, n_w, cap, gradient)
         g = ca.vertcat(g_base, value(x))
         J = ca.vertcat(J, ca.horzcat(grad(x), ca.MX(1, n - n_w)))
         keep = (grad, value, structured)  # CasADi does not hold Python callbacks alive
@@ -113,6 +110,49 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
     nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
     jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, J], ["x", "p"], ["g", "jac_g_x"])
     return nlp, jac_g, keep
+
+
+def _row_value(row: StabilityRow, n: int, n_w: int, cap: list | None,
+               gradient) -> NumericFunction:
+    """The stability row as a CasADi function of the NLP unknowns (NaN above ``cap``); its
+    own Jacobian serves CasADi's derived functions (the Lagrangian gradient at the answer),
+    while IPOPT's constraint Jacobian comes from ``jac_g``."""
+    dense = ca.Sparsity.dense
+    return NumericFunction(
+        "stability_row", [dense(n, 1)], [dense(1, 1)],
+        lambda a: [capped(row.value(np.asarray(a[0]).ravel()[:n_w]), cap)],
+        lambda name: NumericFunction(
+            name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
+            lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]))
+
+
+def _overlapped(x, f, g_base, row: StabilityRow, n_w: int, structured: StructuredJacobian,
+                cap: list | None, P):
+    """:func:`nlp_functions` with the assembled Jacobian: the stability row's reverse sweep
+    runs on its own thread while the shooting intervals are evaluated (the row's sweep is
+    one sequential chain through every interval, as long as the rest of the Jacobian; both
+    spend their time in compiled code). The values do not depend on the overlap."""
+    n = x.shape[0]
+    dense = ca.Sparsity.dense
+    row_sp = ca.horzcat(dense(1, n_w), ca.Sparsity(1, n - n_w))
+    sp = ca.vertcat(structured.sparsity, row_sp)
+    side = ThreadPoolExecutor(1, thread_name_prefix="stability_row")
+
+    def gradient(a):
+        return [ca.DM(row.gradient(np.asarray(a[0]).ravel()[:n_w])).T]
+
+    def both(a):
+        xv = np.asarray(a[0], float).ravel()
+        pending = side.submit(row.gradient, xv[:n_w])
+        base = structured.values(xv)
+        return [ca.vertcat(ca.DM(structured.sparsity, base), ca.DM(row_sp, pending.result()))]
+
+    jac = NumericFunction("fit_jac", [dense(n, 1)], [sp], both)
+    value = _row_value(row, n, n_w, cap, gradient)
+    g = ca.vertcat(g_base, value(x))
+    nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
+    jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, jac(x)], ["x", "p"], ["g", "jac_g_x"])
+    return nlp, jac_g, (jac, value, structured, side)
 
 
 def capped(v: float, cap: list | None) -> float:

@@ -369,7 +369,8 @@ class StrideDesignSolver:
         st = solver.stats()
         w = sol["x"].full().ravel()
         hist = st.get("iterations", {})
-        return {"w": w, "status": st["return_status"], "iterations": int(st["iter_count"]),
+        return {"w": w, "status": st["return_status"], "iterations":
+                int(st["iter_count"]) if progress.history else 0,  # unset if it never iterated
                 "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
                 "success": succeeded(st["return_status"]),
                 "g": sol["g"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
