@@ -13,9 +13,10 @@ class FitOptions:
     from the gravity vertical, like-for-like with the human thigh column).
 
     Stability: ``max_radius`` is the largest accepted spectral radius of the simulator's
-    Poincare map (the verdict); the NLP bounds its smooth bound rho_32 of its own step's
-    Jacobian by ``max_radius - radius_margin`` (rho_32 >= rho, so the verdict holds with
-    ``radius_margin`` to spare for the NLP's and the simulator's step sizes).
+    Poincare map (the verdict); the NLP bounds its stability row (``stability_bound``: by
+    default ||J^8||_F^(1/8) of its own step's Jacobian J, an upper bound of rho) by
+    ``max_radius - radius_margin``, so the verdict holds with ``radius_margin`` to spare for
+    the NLP's and the simulator's step sizes.
 
     Starts: the ``multistart`` gaits, of the atlas entries (stable gaits shipped with the
     package) and the problem's own, whose curves fit the user's best, the most stable first
