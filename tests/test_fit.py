@@ -80,11 +80,10 @@ def test_identifiability_all_compliance(problem, tmp_path):
 
 def test_fit_bundled_curves_stable_and_the_nlp_bound_implies_the_simulators_radius(problem):
     """The bundled fit with the default options converges (Solve_Succeeded, no stall stop)
-    to a stable valid gait;
-    the NLP's default bound ||J^k||_F^(1/k) (k = stability_power) of its own step's Jacobian
-    is at most max_radius - margin at the answer, it bounds the simulator's exact spectral
-    radius there (the verdict), and the two maps agree (the NLP's bound vs the same bound of
-    the simulator's Jacobian to 1e-6)."""
+    to a stable valid gait; the NLP's default bound ||J^k||_F^(1/k) (k = stability_power)
+    of its own step's Jacobian is at most max_radius - margin at the answer, it bounds the
+    simulator's exact spectral radius there (the verdict), and the two maps agree (the
+    NLP's bound vs the same bound of the simulator's Jacobian to 1e-6)."""
     from pdw_casadi.nlp.stability import power_bound
 
     opts = FitOptions(verbose=False)  # what `pdw-fit --gait female_fast.csv` runs
