@@ -343,3 +343,24 @@ def test_real_fits_same_table_from_pool_dask_and_a_killed_resumed_run(tmp_path, 
     for name, saved in done.items():  # the fit done before the kill was not run again
         assert (killed / "fits" / name / "result.json").read_bytes() == saved
     pd.testing.assert_frame_equal(pool, _table(killed), check_exact=True)
+
+
+def test_a_row_reports_the_status_of_the_solve_its_gait_came_from():
+    """A fit whose second round stops at its iteration limit while the gait kept is the
+    first round's converged answer: the row's solver_status is the first round's (it said
+    the last solve's, beside certified = True); iterations and solves count every solve;
+    without a gait the row reports the last solve's status."""
+    from types import SimpleNamespace
+
+    from pdw_casadi.fit.result import Solve
+    from pdw_casadi.studies.cohort import _fit_outcome
+
+    solves = [Solve(0, 0, "Solve_Succeeded", 31, 49.0, 0.85),
+              Solve(0, 1, "Maximum_Iterations_Exceeded", 300, 900.0, 0.84)]
+    kept = SimpleNamespace(solver_status="Solve_Succeeded", certified=True)
+    res = SimpleNamespace(best=kept, candidates=[kept], solves=solves)
+    cand, accepted, row = _fit_outcome(res, lambda c: 0.0)
+    assert cand is kept and accepted
+    assert row == {"solver_status": "Solve_Succeeded", "iterations": 331, "solves": 2}
+    none = SimpleNamespace(best=None, candidates=[], solves=solves)
+    assert _fit_outcome(none, lambda c: 0.0)[2]["solver_status"] == "Maximum_Iterations_Exceeded"

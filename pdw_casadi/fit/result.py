@@ -53,6 +53,8 @@ class Candidate:
     #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
     #: stopped short (checked the same way, not shown to be the NLP's optimum)
     certified: bool = True
+    #: IPOPT's return status of the solve this gait came from (None: no solve)
+    solver_status: str | None = None
 
     @property
     def stable(self) -> bool:

@@ -98,6 +98,7 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
             break
         cand.objective = out["objective"]
         cand.certified = out["success"]
+        cand.solver_status = out["status"]
         rounds.append(cand)
         if not out["success"]:
             break

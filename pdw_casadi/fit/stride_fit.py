@@ -95,6 +95,8 @@ class StrideCandidate:
     #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
     #: stopped short (checked the same way, not shown to be the NLP's optimum)
     certified: bool = True
+    #: IPOPT's return status of the solve this stride came from (None: no solve)
+    solver_status: str | None = None
 
     @property
     def stable(self) -> bool:

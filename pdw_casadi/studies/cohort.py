@@ -32,7 +32,8 @@ R^2 per curve (``r2_knee``, ``r2_hip``, ``r2_thigh``; a per-side fit also per le
 (``k_knee_N_m_per_rad``...; per side ``k_knee_left_N_m_per_rad``...); ``slope_rad``; the
 gait's timing (``step_time_s``, ``step_length_m``, ``speed_m_s``, ``stance_pct``,
 ``double_support_pct``); ``spectral_radius`` (per step; a stride's per-step equivalent, the
-square root of ``stride_spectral_radius``); solver ``iterations`` and ``solver_status``;
+square root of ``stride_spectral_radius``); solver ``iterations`` (all solves) and
+``solver_status`` (IPOPT's status of the solve the row's gait came from);
 ``certified`` (False: the solve stopped short of convergence and the gait is its best
 feasible iterate, checked the same way);
 ``wall_time_s`` and ``cpu_time_s`` (the fit's own, in its worker: on shared cores the
@@ -490,7 +491,11 @@ def _fit_outcome(res, score) -> tuple:
     cand, accepted = res.best, res.best is not None
     if cand is None and res.candidates:
         cand = max(res.candidates, key=score)
-    row: dict = {"solver_status": res.solves[-1].status if res.solves else None,
+    # the status of the solve the row's gait came from: a later round may stop short while
+    # the gait kept is an earlier round's converged answer
+    last = res.solves[-1].status if res.solves else None
+    status = cand.solver_status if cand is not None and cand.solver_status else last
+    row: dict = {"solver_status": status,
                  "iterations": int(sum(s.iterations for s in res.solves)),
                  "solves": len(res.solves)}
     return cand, accepted, row
