@@ -13,6 +13,7 @@ from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.timing import step_timing, timing_or_none
+from pdw_casadi.nlp.driver import succeeded
 
 
 @dataclass
@@ -50,11 +51,14 @@ class Candidate:
     resimulation_deviation: float
     objective: float
     resim_tol: float = FitOptions.resim_tol
-    #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
-    #: stopped short (checked the same way, not shown to be the NLP's optimum)
-    certified: bool = True
     #: IPOPT's return status of the solve this gait came from (None: no solve)
     solver_status: str | None = None
+
+    @property
+    def certified(self) -> bool:
+        """True: IPOPT's converged answer (or no solve); False: the best feasible iterate of
+        a solve that stopped short (checked the same way, not shown to be the NLP's optimum)."""
+        return self.solver_status is None or succeeded(self.solver_status)
 
     @property
     def stable(self) -> bool:

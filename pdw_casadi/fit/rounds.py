@@ -97,7 +97,6 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
                                 if out["success"] else ""))
             break
         cand.objective = out["objective"]
-        cand.certified = out["success"]
         cand.solver_status = out["status"]
         rounds.append(cand)
         if not out["success"]:

@@ -39,6 +39,7 @@ from pdw_casadi.gait.stride import (
     stride_report,
 )
 from pdw_casadi.model.gait_data import SIDES
+from pdw_casadi.nlp.driver import succeeded
 from pdw_casadi.nlp.shooting import ShootingNLP
 
 
@@ -92,11 +93,14 @@ class StrideCandidate:
     objective: float = math.nan
     resim_tol: float = FitOptions.resim_tol
     max_radius: float = FitOptions.max_radius ** 2
-    #: True: IPOPT's converged answer; False: the best feasible iterate of a solve that
-    #: stopped short (checked the same way, not shown to be the NLP's optimum)
-    certified: bool = True
     #: IPOPT's return status of the solve this stride came from (None: no solve)
     solver_status: str | None = None
+
+    @property
+    def certified(self) -> bool:
+        """True: IPOPT's converged answer (or no solve); False: the best feasible iterate of
+        a solve that stopped short (checked the same way, not shown to be the NLP's optimum)."""
+        return self.solver_status is None or succeeded(self.solver_status)
 
     @property
     def stable(self) -> bool:
