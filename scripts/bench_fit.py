@@ -34,7 +34,8 @@ from pdw_casadi.fit import FitOptions
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import load_problem
-from pdw_casadi.report.fit_report import fit_and_report
+from pdw_casadi.report.fit_report import write_fit_report
+from pdw_casadi.studies.fit_run import run_fit
 
 ROOT = Path(__file__).resolve().parents[1]
 GOAL_S = 15.0  # whole command, warm, per file
@@ -71,7 +72,7 @@ def bench_one(problem, f: str, overrides: dict) -> dict:
     opts = FitOptions(verbose=False, **overrides)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        s = fit_and_report(problem, human, opts, Path(tmp), log=lambda m: None)
+        s = write_fit_report(run_fit(problem, human, opts, log=lambda m: None), Path(tmp))
         wall = time.perf_counter() - t0
     solver = s["solver"]
     t3 = s["comparison"]["table3"]

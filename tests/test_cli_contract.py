@@ -150,8 +150,8 @@ def test_d3_fit_needs_a_walker_with_knee_hip_and_something_to_fit(tmp_path, caps
     assert not out.exists()
 
 
-def test_d4_fit_report_runs_the_comparison_walker_only_for_its_family(monkeypatch, tmp_path):
-    import pdw_casadi.report.fit_report as fr
+def test_d4_fit_runs_the_comparison_walker_only_for_its_family(monkeypatch):
+    import pdw_casadi.studies.fit_run as fr
 
     calls = []
 
@@ -174,7 +174,7 @@ def test_d4_fit_report_runs_the_comparison_walker_only_for_its_family(monkeypatc
                            ("humanlike_6link", ["humanlike_6link", "comparison_kneed_6link"])):
         calls.clear()
         with pytest.raises(Stop):
-            fr.fit_and_report(load_problem(name), human, None, tmp_path)
+            fr.run_fit(load_problem(name), human, None)
         assert calls == expected
 
 

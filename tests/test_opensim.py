@@ -305,6 +305,7 @@ def test_fit_command_exports_the_fitted_gait(tmp_path, capsys, monkeypatch):
     slope, fixed point); the fit itself is replaced by one whose answer is known: the
     problem's fixed point, which differs from its initial state (Table 2)."""
     import pdw_casadi.report.fit_report as fit_report
+    import pdw_casadi.studies.fit_run as fit_run
     from pdw_casadi.cli import fit_main
     from pdw_casadi.gait.fixed_point import find_fixed_point
 
@@ -314,14 +315,20 @@ def test_fit_command_exports_the_fitted_gait(tmp_path, capsys, monkeypatch):
     assert abs(fp.state[1] - fp.state[0] - (changed.initial_state["q2"]
                                             - changed.initial_state["q1"])) > 1e-6
 
-    def fake_fit(problem_, human, opts, out, **kw):
+    def fake_fit(problem_, human, opts, before_work=None, **kw):
+        before_work()  # the command creates its output folder here
+        return "the fit"
+
+    def fake_report(run, out):
+        assert run == "the fit"
         comp, slope = changed.split_parameters(fp.parameters)
         return {"compliance": comp, "slope": slope, "stable": True, "valid": True,
                 "fixed_point": dict(zip(changed.state_names, map(float, fp.state),
                                         strict=True)),
                 "headline": "fake fit"}
 
-    monkeypatch.setattr(fit_report, "fit_and_report", fake_fit)
+    monkeypatch.setattr(fit_run, "run_fit", fake_fit)
+    monkeypatch.setattr(fit_report, "write_fit_report", fake_report)
     out = tmp_path / "fit"
     assert _run_command(fit_main, ["--gait", "female_fast.csv", "--export", "opensim",
                                    "--out", str(out)]) == 0

@@ -125,20 +125,21 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
                              f"to fit; add --free-slope to fit the slope")
         outputs.check()
-        from pdw_casadi.report.fit_report import fit_and_report
+        from pdw_casadi.report.fit_report import write_fit_report
+        from pdw_casadi.studies.fit_run import run_fit
 
         opts = fit_options(args, per_leg=False, verbose=not args.quiet)
         if opts.atlas:
             check_atlas_file(problem, Path(opts.atlas))
         if args.scheduler is not None:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
-        from pdw_casadi.fit import check_targets
-
-        check_targets(problem, human, opts)
-        out = _fit_output(outputs, opts)
-        summary = fit_and_report(problem, human, opts, out, workers=args.workers,
-                                 scheduler=args.scheduler,
-                                 log=lambda m: print(m, file=sys.stderr, flush=True))
+        # the workflow checks the curves against the targets first, then (before_work)
+        # the output folder is created: bad input writes nothing
+        fit = run_fit(problem, human, opts, workers=args.workers, scheduler=args.scheduler,
+                      log=lambda m: print(m, file=sys.stderr, flush=True),
+                      before_work=lambda: _fit_output(outputs, opts))
+        out = outputs.stage
+        summary = write_fit_report(fit, out)
         for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
                      "ipopt.log"):
             outputs.wrote(out / name)
@@ -155,9 +156,9 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
 def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     """pdw-fit with per-side curves: each leg fitted to its side on the stride
     (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
-    from pdw_casadi.fit.stride_fit import check_stride_targets
     from pdw_casadi.gait.stride import stride_map
-    from pdw_casadi.report.fit_stride_report import fit_stride_and_report
+    from pdw_casadi.report.fit_stride_report import write_fit_stride_report
+    from pdw_casadi.studies.fit_run import run_fit
 
     if args.timing:
         raise UsageError("--timing is a one-step fit's target; a per-leg fit has none")
@@ -178,10 +179,11 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     opts = fit_options(args, verbose=not args.quiet)
     if opts.atlas:
         check_atlas_file(problem, Path(opts.atlas), same_parameters=not problem.asymmetric)
-    check_stride_targets(problem, sides, opts)
-    out = _fit_output(outputs, opts)
-    summary = fit_stride_and_report(problem, sides, opts, out,
-                                    log=lambda m: print(m, file=sys.stderr, flush=True))
+    # the workflow checks each side's curves first, then creates the output (before_work)
+    fit = run_fit(problem, sides, opts, log=lambda m: print(m, file=sys.stderr, flush=True),
+                  before_work=lambda: _fit_output(outputs, opts))
+    out = outputs.stage
+    summary = write_fit_stride_report(fit, out)
     for name in ("summary.json", "curves.csv", "fit.png", "table.md", "ipopt.log"):
         outputs.wrote(out / name)
     _export_fit(args, outputs, problem, summary, out)

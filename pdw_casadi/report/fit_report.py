@@ -1,11 +1,7 @@
-"""Run a fit and write its report: summary.json, curves.csv, fit.png, limit_cycle.png, table.md.
+"""Write a fit's report: summary.json, curves.csv, fit.png, limit_cycle.png, table.md.
 
-Beside the fit, references are computed with the same curve code on the same data: the
-problem file's own compliance (for the 6-link walker the paper's Table 3) re-run on this
-walker, and, when the walker's family names one (``COMPARISON_PROBLEM``, see
-:mod:`pdw_casadi.model.faces`), its comparison walker: for the 6-link walker the paper's [48]
-(point feet, knees locked in stance) with this anthropometry
-(``problems/comparison_kneed_6link.toml``). Other walkers have no comparison row.
+The fit and its references are computed by :func:`pdw_casadi.studies.fit_run.run_fit`; this
+module renders its :class:`~pdw_casadi.studies.fit_run.FitRun` into the report files.
 """
 
 from __future__ import annotations
@@ -15,26 +11,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from pdw_casadi.engine.compile import build_libraries
 from pdw_casadi.engine.jsonio import write_json
-from pdw_casadi.fit import (
-    Candidate,
-    FitOptions,
-    FitResult,
-    check_targets,
-    fit_gait,
-    fit_libraries,
-    mean_score,
-    reference_gait,
-)
-from pdw_casadi.gait.poincare import fixed_point_libraries
-from pdw_casadi.gait.simulate import Simulator
-from pdw_casadi.gait.timing import fixed_point_timing, human_timing, timing_table
-from pdw_casadi.model.faces import walker_faces
-from pdw_casadi.model.problem import load_problem
-from pdw_casadi.model.system import hybrid_system
+from pdw_casadi.gait.timing import timing_table
 from pdw_casadi.model.units import summary_units
 from pdw_casadi.report.plots import plot_fit, plot_limit_cycle
+from pdw_casadi.studies.fit_run import FitRun
 
 
 def _scores(d: dict) -> dict:
@@ -47,15 +28,6 @@ def uncertified_note(cand) -> str:
         return ""
     return ("; NOT CERTIFIED OPTIMAL: IPOPT stopped short of convergence, this is its best "
             "feasible iterate, checked on the simulator (a better fit may exist)")
-
-
-def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
-    """The best stable valid candidate, else the best candidate at all (flagged)."""
-    if res.best is not None:
-        return res.best, True
-    if not res.candidates:
-        return None, False
-    return max(res.candidates, key=lambda c: mean_score(c, res.targets)), False
 
 
 def _table(rows: list[tuple[str, dict]]) -> str:
@@ -74,26 +46,13 @@ def _table(rows: list[tuple[str, dict]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1,
-                   log=print, scheduler: str | None = None) -> dict:
-    """Fit, compare with the references, write the report files into ``out``; the summary."""
+def write_fit_report(run: FitRun, out: Path) -> dict:
+    """Write the report files of ``run`` into ``out``; the summary."""
     out = Path(out)
-    check_targets(problem, human, opts or FitOptions())  # before the reference solves
-    faces = walker_faces(problem)
-    comparison_name = faces.comparison_problem
-    # everything the references and the fit call, compiled side by side on a first run
-    build_libraries([*fit_libraries(problem, opts or FitOptions()),
-                     *(fixed_point_libraries(load_problem(comparison_name))
-                       if comparison_name else ())], log=log)
-    log("reference: the problem's own compliance on the same data")
-    table3 = reference_gait(problem, human)
-    paper = dict(faces.paper_reported) if faces.paper_reported else None
-    comparison = None
-    if comparison_name is not None:
-        log(f"reference: the comparison walker {comparison_name}")
-        comparison = reference_gait(load_problem(comparison_name), human)
-    res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
-    cand, ok = _pick(res)
+    problem, human, opts, res = run.problem, run.human, run.options, run.result
+    cand, ok = run.candidate, run.accepted
+    table3, comparison = run.reference, run.comparison
+    comparison_name, paper = run.comparison_problem, run.paper_reported
     h = human.resample(101)
     curves = pd.DataFrame({"cycle_pct": h.cycle_pct, "human_knee_deg": h.knee_deg,
                            "human_hip_deg": h.hip_deg})
@@ -120,10 +79,8 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
         if d.get("curves") is not None:
             models[names[key]] = d["curves"]
             scores[names[key]] = _scores(d)
-    fit_timing = None
-    if cand is not None:
-        fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
-    norms, norms_source = human_timing(human)
+    fit_timing = run.fit_timing
+    norms, norms_source = run.human_timing, run.human_timing_source
     markers = {"human toe off": norms["toe_off_pct"]}
     if fit_timing is not None:
         markers.update({f"fit {k}": v for k, v in fit_timing.markers().items()})
@@ -161,9 +118,7 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             "resimulation_steps": opts.resim_steps, "accepted": ok,
             "certified": cand.certified,
             "timing": None if fit_timing is None else fit_timing.to_dict()})
-        sim = Simulator(problem)
-        two = sim.run(cand.state, cand.parameters, steps=2, record=True)
-        plot_limit_cycle(two.trajectory, out / "limit_cycle.png", faces=faces,
+        plot_limit_cycle(run.limit_cycle, out / "limit_cycle.png", faces=run.faces,
                          title=f"{problem.name}, fitted compliance: one leg over two steps")
     rows = [("paper, reported (its own four subjects)", paper)] if paper else []
     rows.append(("problem file's compliance, re-run here",
@@ -197,6 +152,6 @@ def fit_and_report(problem, human, opts: FitOptions, out: Path, workers: int = 1
             + f"   spectral radius {cand.fixed_point.spectral_radius:.4f} ({verdict}); "
             f"problem file's compliance: r2_knee = {table3.get('r2_knee', float('nan')):.3f} "
             f"r2_hip = {table3.get('r2_hip', float('nan')):.3f}" + uncertified_note(cand))
-    summary["units"] = summary_units(summary, hybrid_system(problem))
+    summary["units"] = summary_units(summary, run.system)
     write_json(out / "summary.json", summary)
     return summary

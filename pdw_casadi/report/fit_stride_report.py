@@ -1,11 +1,13 @@
-"""Run a per-leg (stride) fit and write its report: summary.json, curves.csv, fit.png, table.md.
+"""Write a per-leg (stride) fit's report: summary.json, curves.csv, fit.png, table.md.
 
 The report of the per-leg fit (:func:`pdw_casadi.fit.core.fit_sides`): R^2 per leg and curve of the
 re-simulated stride and of its symmetric start, each leg's compliance, the step-length and
 step-time asymmetry (%, 100 (L - R) / mean), the stride's spectral radius (the verdict,
 <= max_radius^2) and its per-step equivalent (its square root), validity and the
 re-simulation deviation; ``fit.png`` draws each leg's knee and hip over its own gait cycle
-against its side's human curve (+/- SD where the file has one).
+against its side's human curve (+/- SD where the file has one). The fit is run by
+:func:`pdw_casadi.studies.fit_run.run_fit`; this module renders its
+:class:`~pdw_casadi.studies.fit_run.FitSidesRun`.
 """
 
 from __future__ import annotations
@@ -17,24 +19,14 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from pdw_casadi.engine.jsonio import write_json
-from pdw_casadi.fit.core import fit_stride
-from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitOptions, StrideFitResult
-from pdw_casadi.gait.stride import stride_map
+from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitResult
 from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
 from pdw_casadi.report.fit_report import uncertified_note
 from pdw_casadi.report.plots import plot_fit
+from pdw_casadi.studies.fit_run import FitSidesRun
 
 JOINTS = ("knee", "hip", "thigh")
-
-
-def _pick(res: StrideFitResult) -> tuple[StrideCandidate | None, bool]:
-    """The best stable valid candidate, else the best candidate at all (flagged)."""
-    if res.best is not None:
-        return res.best, True
-    if not res.candidates:
-        return None, False
-    return max(res.candidates, key=lambda c: c.mean_score(res.targets)), False
 
 
 def _unit(name: str) -> str:
@@ -44,13 +36,6 @@ def _unit(name: str) -> str:
 
 def _f(v, fmt="{:.3f}") -> str:
     return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) else fmt.format(v)
-
-
-def leg_compliance(problem, theta) -> dict:
-    """Each leg's compliance {side: {name: value}} from physical parameters ``theta``."""
-    names = list(stride_map(problem).parameter_names)
-    return {s: {k: float(theta[names.index(f"{s}.{k}")]) for k in problem.compliance_names}
-            for s in SIDES}
 
 
 def plot_stride_fit(sides, models: dict, path, scores: dict | None = None) -> Figure:
@@ -108,13 +93,11 @@ def _table(res: StrideFitResult, cand: StrideCandidate | None, comp: dict | None
     return text
 
 
-def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
-                          log=print) -> dict:
-    """Fit each leg to its side (:func:`fit_stride`), write the report files into ``out``;
-    the summary."""
+def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
+    """Write the report files of the per-leg fit ``run`` into ``out``; the summary."""
     out = Path(out)
-    res = fit_stride(problem, sides, opts, log=log)
-    cand, ok = _pick(res)
+    problem, sides, opts, res = run.problem, run.sides, run.options, run.result
+    cand, ok = run.candidate, run.accepted
     grid = sides.left.resample(101).cycle_pct
     cols: dict = {"cycle_pct": grid}
     models: dict = {}
@@ -138,7 +121,7 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
                 cols[f"{key}_{s}_{j}_deg"] = m[s][f"{j}_deg"].to_numpy()
     pd.DataFrame(cols).to_csv(out / "curves.csv", index=False)
     plot_stride_fit(sides, models, out / "fit.png", scores)
-    start_comp = leg_compliance(problem, np.asarray(res.start["theta"]))
+    start_comp = run.start_compliance
     summary: dict = {
         "gait_file": str(sides.source), "problem": problem.name, "targets": list(res.targets),
         "fit": "stride", "side": opts.side, "free": list(res.free),
@@ -150,14 +133,12 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
                    "status": res.solves[-1].status if res.solves else None,
                    "iterations": int(sum(s.iterations for s in res.solves)),
                    "wall_time_s": res.wall_time_s, "notes": res.notes}}
-    comp = None
+    comp = run.compliance
     if cand is not None:
         fp, rep = cand.fixed_point, cand.report
-        comp = leg_compliance(problem, cand.theta)
-        names = list(stride_map(problem).parameter_names)
         legs = {s: {**cand.scores[s], "compliance": comp[s], **rep["legs"][s]} for s in SIDES}
         summary.update({
-            "legs": legs, "slope": float(cand.theta[names.index("slope")]),
+            "legs": legs, "slope": run.slope,
             "step_length_asymmetry_pct": rep["step_length_asymmetry_pct"],
             "step_time_asymmetry_pct": rep["step_time_asymmetry_pct"],
             "double_support_pct": rep["double_support_pct"], "speed_m_s": rep["speed_m_s"],
@@ -186,7 +167,7 @@ def fit_stride_and_report(problem, sides, opts: StrideFitOptions, out: Path,
             f"{cand.report['step_length_asymmetry_pct']:+.2f} / "
             f"{cand.report['step_time_asymmetry_pct']:+.2f} %   stride radius "
             f"{cand.fixed_point.spectral_radius:.4f} ({verdict})" + uncertified_note(cand))
-    summary["units"] = summary_units(summary, stride_map(problem).hs)
+    summary["units"] = summary_units(summary, run.system)
     # here the legs are the physical legs, not the step's stance and swing roles
     summary["units"]["legs"] = (
         "left, right: the physical legs; R^2 dimensionless, names carry their unit "

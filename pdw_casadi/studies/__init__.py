@@ -1,1 +1,2 @@
-"""Layer 6, studies built on the fit: the prosthesis design and subject scaling."""
+"""Layer 6, studies built on the fit: the fit workflow, the prosthesis design and subject
+scaling."""
