@@ -3,15 +3,20 @@ is fitted back (identifiability), and the CLI rejects bad curve files without wr
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from pdw_casadi.fit import FitOptions, fit_gait
+from pdw_casadi.fit import FitOptions, fit_gait, reference_gait
 from pdw_casadi.gait.curves import gait_cycle
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.model.problem import load_problem
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def synthetic_curves(problem, p_true, path, x0=None) -> pd.DataFrame:
@@ -182,3 +187,131 @@ def test_a_fit_stopped_at_its_iteration_limit_gives_its_best_feasible_iterate(pr
     resim = sum(1 - best.scores[f"r2_{t}"] for t in opts.targets())
     assert abs(resim - best.objective) <= opts.consistency_tol * best.objective
     assert any("not certified optimal" in n for n in res.notes)
+
+
+def _iterates(objectives, infeasibilities):
+    from pdw_casadi.nlp.driver import Iterate
+
+    return [Iterate(k, f, inf, {}, float("nan"), 0.0)
+            for k, (f, inf) in enumerate(zip(objectives, infeasibilities, strict=True))]
+
+
+def test_a_stall_is_a_flat_objective_with_an_infeasibility_that_does_not_fall():
+    """The stall rule (FitOptions.stall_*): a solve wandering at infeasibility 1e-2..1e-1
+    with its objective flat to 1e-4 stalls; one whose infeasibility falls by decades, one
+    whose objective still falls, and one already feasible to 1e-7 (converging) do not."""
+    from pdw_casadi.nlp.driver import Stall
+
+    rule = Stall(window=10, rtol=1e-3, min_infeasibility=1e-5)
+    rng = np.random.default_rng(0)
+    flat = 0.19 + 1e-5 * rng.standard_normal(30)
+    wander = 10 ** rng.uniform(-2, -1, 30)
+    assert rule.stalled(_iterates(flat, wander))
+    assert not rule.stalled(_iterates(flat[:10], wander[:10]))  # not a window yet
+    falling = np.r_[wander[:20], np.logspace(-3, -4, 10)]
+    assert not rule.stalled(_iterates(flat, falling))
+    descending = 0.3 - 0.003 * np.arange(30)
+    assert not rule.stalled(_iterates(descending, wander))
+    converging = np.r_[wander[:20], np.full(10, 1e-7)]
+    assert not rule.stalled(_iterates(flat, converging))
+
+
+def test_progress_keeps_nearly_feasible_iterates_with_their_multipliers_and_stops_a_stall():
+    """The iteration callback keeps the lowest-objective iterates within near_tol (with
+    IPOPT's multipliers, for a warm restart) and asks IPOPT to stop once it stalls."""
+    import casadi as ca
+
+    from pdw_casadi.nlp.driver import Progress, Stall
+
+    lbg, ubg = np.array([0.0, -np.inf]), np.array([0.0, 0.9])
+    lbx, ubx = np.array([-1.0, -1.0]), np.array([1.0, 1.0])
+    prog = Progress(2, 2, lbg, ubg, lbx, ubx, lambda x: {}, True, None, near_tol=1e-2,
+                    near_keep=2, stall=Stall(window=3, rtol=1e-3, min_infeasibility=1e-5))
+    names = ca.nlpsol_out()
+
+    def it(f, g, x):
+        d = {"f": f, "g": np.array(g), "x": np.array(x), "lam_g": np.array([1.0, 2.0]),
+             "lam_x": np.array([3.0, 4.0])}
+        return prog.eval([d.get(n, np.zeros(0)) for n in names])[0]
+
+    assert it(0.30, [5e-2, 0.8], [0.1, 0.1]) == 0     # too infeasible to keep
+    assert it(0.20, [5e-3, 0.8], [0.2, 0.2]) == 0
+    assert it(0.25, [3e-2, 0.8], [0.3, 0.3]) == 0     # too infeasible to keep
+    assert it(0.19, [8e-3, 0.8], [0.4, 0.4]) == 0
+    assert it(0.19, [2e-2, 0.8], [0.5, 0.5]) == 0
+    assert it(0.19, [4e-2, 0.8], [0.6, 0.6]) == 1     # flat, not falling: stalled
+    assert prog.stalled
+    assert [k.iteration for k in prog.near] == [3, 1]
+    assert np.array_equal(prog.near[0].lam_g, [1.0, 2.0])
+    assert np.array_equal(prog.near[0].x, [0.4, 0.4])
+
+
+def test_the_polish_turns_a_solve_stopped_early_into_a_stable_valid_gait(problem):
+    """IPOPT stopped at 6 iterations on the bundled file, before any iterate held every row
+    to its tolerance (no best feasible iterate): the simulator polishes the nearly feasible
+    iterates (Newton on the map at their compliance) into a stable, valid gait, the answer,
+    not certified; without the polish the same solve has no gait."""
+    human = load_gait_curves("female_fast.csv")
+    opts = FitOptions(verbose=False, max_iter=6, rounds=1)
+    res = fit_gait(problem, human, opts, log=lambda m: None)
+    solve = res.solves[-1]
+    assert solve.status == "Maximum_Iterations_Exceeded"
+    best = res.best
+    assert best is not None and not best.certified
+    assert best.polished_from is not None and best.polished_from <= 6
+    assert best.stable and best.valid and best.fixed_point.spectral_radius <= opts.max_radius
+    # the polished gait is the simulator's own periodic gait: it re-simulates exactly
+    assert best.resimulation_deviation < opts.resim_tol
+    off = fit_gait(problem, human, FitOptions(verbose=False, max_iter=6, rounds=1,
+                                              polish_infeasibility=None),
+                   log=lambda m: None)
+    assert off.best is None
+
+
+@pytest.mark.slow
+def test_a_stalled_solve_restarts_warm_and_converges():
+    """WBDS18_late from the problem's own gait (no atlas): IPOPT leaves its feasible,
+    stable iterate and wanders with the stability row at 1.0-1.4 (it used to reach its
+    300-iteration limit); the stall rule stops it and the warm restart from its least
+    infeasible kept iterate converges (Solve_Succeeded), to a stable valid gait above the
+    problem file's own on knee and mean R^2."""
+    problem = load_problem("humanlike_6link")
+    human = load_gait_curves(str(ROOT / "data" / "corpus" / "WBDS18_late.csv"))
+    opts = FitOptions(verbose=False, atlas="")
+    res = fit_gait(problem, human, opts, log=lambda m: None)
+    assert res.solves[0].status == "User_Requested_Stop"
+    assert any("stalled" in n for n in res.notes)
+    assert res.solves[-1].status == "Solve_Succeeded"
+    best = res.best
+    assert best is not None and best.certified and best.stable and best.valid
+    ref = reference_gait(problem, human)
+    assert best.scores["r2_knee"] >= ref["r2_knee"]
+    assert best.scores["r2_knee"] + best.scores["r2_hip"] >= ref["r2_knee"] + ref["r2_hip"]
+
+
+def test_a_warm_start_from_a_stored_solution_stays_at_it(problem):
+    """A solved fit NLP's solution and multipliers, stored (WarmStart) and handed to a new
+    solver of the same NLP for the same curves, need at most a few IPOPT iterations and
+    give the same objective; a stored solution of another shape is refused."""
+    from pdw_casadi.fit.core import StepFit
+    from pdw_casadi.fit.driver import WarmStart
+    from pdw_casadi.fit.starts import select_starts
+
+    human = load_gait_curves("female_fast.csv")
+    opts = FitOptions(verbose=False)
+    start = select_starts(problem, human, opts)[0]
+    fp = find_fixed_point(problem, start.state, start.parameters, max_iter=30,
+                          fallback=False)
+    fit = StepFit(problem, human, opts, 0, start.label, fp.spectral_radius)
+    nlp = fit.nlp(fp.state, fp.parameters)
+    first = fit.solver(nlp)
+    cold = first.solve(nlp.w0)
+    assert cold["success"] and cold["iterations"] > 10
+    warm = first.warm_start_of(cold)
+    again = fit.solver(nlp)
+    out = again.solve(nlp.w0, warm=again.warm_point(warm))
+    assert out["success"] and out["iterations"] <= 3
+    assert abs(out["objective"] - cold["objective"]) <= 1e-6 * cold["objective"]
+    assert np.max(np.abs(out["w"] - cold["w"])) <= 1e-4
+    short = WarmStart(warm.w[:-1], warm.lam_w[:-1], warm.lam_shooting, warm.lam_row)
+    assert again.warm_point(short) is None

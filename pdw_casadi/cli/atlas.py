@@ -44,7 +44,7 @@ def atlas_main(argv=None) -> int:
 
     def body() -> int:
         from pdw_casadi.fit.atlas import VARIANTS, build_atlas
-        from pdw_casadi.fit.starts import atlas_path, save_atlas
+        from pdw_casadi.fit.starts import atlas_path, save_atlas, warm_path
 
         problem = load_problem(args.problem)
         check_curve_walker(problem, "pdw-atlas")
@@ -58,7 +58,8 @@ def atlas_main(argv=None) -> int:
         if not entries:
             raise NoGait(f"no stable valid gait of {problem.name} for any target (nothing "
                          f"written)")
-        save_atlas(problem, entries, outputs.wrote(outputs.staged(out)))
+        save_atlas(problem, entries, outputs.wrote(outputs.staged(out)),
+                   outputs.wrote(outputs.staged(warm_path(Path(out)))))
         print(f"wrote {out}")
         return 0
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -31,6 +32,7 @@ from pdw_casadi.cli.contract import (
     one_line,
     run,
 )
+from pdw_casadi.cli.scripts import STARTED
 from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.model.problem import Problem, check_bounds
 
@@ -135,15 +137,21 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
         # the workflow checks the curves against the targets first, then (before_work)
         # the output folder is created: bad input writes nothing
+        began = time.perf_counter()
         fit = run_fit(problem, human, opts, workers=args.workers, scheduler=args.scheduler,
                       log=lambda m: print(m, file=sys.stderr, flush=True),
                       before_work=lambda: _fit_output(outputs, opts))
         out = outputs.stage
-        summary = write_fit_report(fit, out)
+        with fit.times.part("report files and figures"):
+            summary = write_fit_report(fit, out)
+        if STARTED[0] is not None:  # a console script: its start-up and imports first
+            fit.times.parts = {"start-up and imports": began - STARTED[0], **fit.times.parts}
         for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",
                      "ipopt.log"):
             outputs.wrote(out / name)
         _export_fit(args, outputs, problem, summary, out)
+        if not args.quiet:
+            print(fit.times.line(), file=sys.stderr, flush=True)
         print(summary["headline"])
         print(f"wrote {outputs.dir}")
         if not (summary["stable"] and summary["valid"]):

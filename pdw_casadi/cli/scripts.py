@@ -8,12 +8,18 @@ SIGTERM must end the process within a few (:func:`pdw_casadi.cli.contract.run`).
 from __future__ import annotations
 
 import sys
+import time
 
 from pdw_casadi.engine import interrupt
+
+#: when the console script's process began its work (s, time.perf_counter): what a verbose
+#: run's last line counts its start-up and imports from
+STARTED: list[float | None] = [None]
 
 
 def _script(command: str):
     def main(argv=None) -> None:
+        STARTED[0] = time.perf_counter()
         interrupt.EXIT_AT_ONCE[0] = True
         with interrupt.handling():  # from the start: the imports below take seconds
             try:

@@ -22,9 +22,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from pdw_casadi.fit.core import fit_gait
+from pdw_casadi.fit.core import StepFit, fit_gait
+from pdw_casadi.fit.driver import WarmStart
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.fit.starts import AtlasEntry, own_gait
+from pdw_casadi.fit.starts import AtlasEntry, own_gait, warm_key
 from pdw_casadi.model.gait_data import GaitCurves
 
 #: deformations of the walker's own curves that the variants are fitted to:
@@ -43,6 +44,24 @@ def _target(c: pd.DataFrame, knee: float, hip: float, name: str) -> GaitCurves:
                           "knee_mean_deg": kd.mean() + knee * (kd - kd.mean()),
                           "thigh_mean_deg": c.thigh_deg + hip})
     return GaitCurves(frame, Path(f"<{name}>"), name)
+
+
+def user_options() -> FitOptions:
+    """The options of the fits an atlas serves (``pdw-fit``'s defaults): its warm starts
+    are solutions of their NLP."""
+    return FitOptions(verbose=False)
+
+
+def warm_start_at(problem, target: GaitCurves, cand, opts: FitOptions) -> WarmStart | None:
+    """The solution and multipliers of ``opts``'s NLP built at the fitted gait ``cand``
+    for the curves ``target`` (what a later fit starting at that gait is warm started
+    from), or None when that solve does not converge."""
+    fit = StepFit(problem, target, opts, 0, "atlas", cand.fixed_point.spectral_radius,
+                  log=lambda m: None)
+    nlp = fit.nlp(cand.state, cand.parameters)
+    solver = fit.solver(nlp)
+    out = solver.solve(nlp.w0)
+    return solver.warm_start_of(out) if out["success"] else None
 
 
 def build_atlas(problem, radii=RADII, variants=VARIANTS[:1],
@@ -65,8 +84,11 @@ def build_atlas(problem, radii=RADII, variants=VARIANTS[:1],
             log(f"radius {r}: no stable valid gait ({res.notes})")
             continue
         label = f"{problem.name}-{name}-rho{r:.2f}"
-        entries.append(AtlasEntry(label, b.state, b.parameters, b.fixed_point.spectral_radius,
-                                  b.curves))
+        entry = AtlasEntry(label, b.state, b.parameters, b.fixed_point.spectral_radius,
+                           b.curves)
+        entry.warm, entry.warm_key = warm_start_at(problem, target, b, user_options()), \
+            warm_key(user_options())
+        entries.append(entry)
         log(f"{label}: rho {b.fixed_point.spectral_radius:.4f}, R^2 to its target knee "
             f"{b.scores['r2_knee']:.4f} hip {b.scores['r2_hip']:.4f}")
     return entries

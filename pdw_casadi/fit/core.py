@@ -90,6 +90,21 @@ class StepFit:
             cand.start = self.start
         return cand
 
+    def polish(self, nlp, w) -> Candidate | None:
+        cand = self.check(nlp, {"w": w})
+        if cand is not None:
+            # the gait is the simulator's fixed point, not the iterate: re-simulate it
+            cand.resimulation_deviation = PoincareMap(self.problem, self.sim.hs) \
+                .resimulation_deviation([cand.state], cand.parameters, self.opts.resim_steps)
+            cand.objective = sum(1 - cand.scores[f"r2_{t}"] for t in self.targets)
+        return cand
+
+    def accepts(self, cand: Candidate) -> bool:
+        return cand.good(self.opts)
+
+    def rank(self, cand: Candidate) -> float:
+        return mean_score(cand, self.targets)
+
     def gap(self, cand: Candidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in self.targets))
 
@@ -150,7 +165,8 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
         return None, [], [note]
     fit = StepFit(problem, human, opts, s, start.label, fp0.spectral_radius, log=log,
                   floor=floor)
-    rounds, solves, notes = fit_rounds(fit, fp0.state, fp0.parameters, opts, log=log)
+    rounds, solves, notes = fit_rounds(fit, fp0.state, fp0.parameters, opts, log=log,
+                                       warm=start.warm)
     good = [c for c in rounds if c.good(opts)]
     best = max(good, key=lambda c: mean_score(c, targets)) if good else (
         rounds[-1] if rounds else None)

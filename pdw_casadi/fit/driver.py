@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -13,8 +14,29 @@ from pdw_casadi.engine import interrupt
 from pdw_casadi.fit.objective import curve_errors
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.timing import human_timing, phase_contacts
-from pdw_casadi.nlp.driver import Progress, ipopt_settings, nlp_functions, succeeded
+from pdw_casadi.nlp.driver import (
+    FeasibleIterate,
+    Progress,
+    Stall,
+    ipopt_settings,
+    nlp_functions,
+    succeeded,
+)
 from pdw_casadi.nlp.stability import StabilityRow
+
+
+@dataclass
+class WarmStart:
+    """A stored solution of a fit's NLP to start another fit's NLP of the same shape from
+    (:meth:`FitSolver.warm_point`): the shooting unknowns ``w``, their bound multipliers
+    ``lam_w``, the multipliers of the shooting rows ``lam_shooting`` and of the stability
+    row ``lam_row`` (None: no row). The curve rows' multipliers are not stored: they follow
+    from the new fit's curves."""
+
+    w: np.ndarray
+    lam_w: np.ndarray
+    lam_shooting: np.ndarray
+    lam_row: float | None
 
 
 def stance_pct_expr(nlp) -> ca.MX:
@@ -99,6 +121,38 @@ class FitSolver:
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
 
+    @property
+    def n_shooting(self) -> int:
+        """The shooting NLP's own rows (the first rows of g)."""
+        return int(self.nlp.g.shape[0])
+
+    def warm_point(self, warm: WarmStart) -> FeasibleIterate | None:
+        """The full IPOPT point (unknowns and multipliers) of a stored solution ``warm`` of
+        an NLP of the same shape (None: its shape differs from this one's). The curve errors
+        and their rows' multipliers are this fit's own: at E = err(w) the objective's
+        stationarity in E gives lam_E = -2 E / SS_tot exactly; a knee-floor row starts at 0."""
+        if warm.w.size != self.n_w or warm.lam_shooting.size != self.n_shooting or \
+                (self.row is None) != (warm.lam_row is None):
+            return None
+        w = np.clip(warm.w, self.lo, self.hi)
+        e = self.err(w).full().ravel()
+        lam_e, o = [], 0
+        for target, E in self.E.items():
+            lam_e.append(-2.0 * e[o: o + E.shape[1]] / self.ss[target])
+            o += E.shape[1]
+        n_floor = self.lbg.size - self.n_shooting - e.size - (self.row is not None)
+        lam_g = np.r_[warm.lam_shooting, *lam_e, np.zeros(n_floor),
+                      [] if self.row is None else [warm.lam_row]]
+        return FeasibleIterate(-1, math.nan, np.r_[w, e], math.nan,
+                               np.r_[warm.lam_w, np.zeros(e.size)], lam_g)
+
+    def warm_start_of(self, out: dict) -> WarmStart:
+        """What :meth:`warm_point` needs of a solve ``out`` of this solver, to store."""
+        lam_g = out["lam_g"]
+        return WarmStart(out["w"].copy(), out["lam_x"][: self.n_w].copy(),
+                         lam_g[: self.n_shooting].copy(),
+                         None if self.row is None else float(lam_g[-1]))
+
     def r2_of(self, x) -> dict:
         """Per target, 1 - sum E^2 / SS_tot at the NLP unknowns ``x`` (w, E)."""
         out, o = {}, self.n_w
@@ -108,24 +162,28 @@ class FitSolver:
             out[target] = 1.0 - float(e @ e) / self.ss[target]
         return out
 
-    def solve(self, w0) -> dict:
-        """Solve from ``w0`` (ShootingNLP unknowns): the answer, IPOPT status, iterations."""
+    def unknowns(self, k: FeasibleIterate) -> np.ndarray:
+        """The ShootingNLP unknowns of a kept iterate, within their bounds."""
+        return np.clip(k.x[: self.n_w], self.lo, self.hi)
+
+    def solve(self, w0, warm: FeasibleIterate | None = None,
+              max_iter: int | None = None) -> dict:
+        """Solve from ``w0`` (ShootingNLP unknowns), or warm from the kept iterate ``warm``
+        with its multipliers (:attr:`FitOptions.warm_ipopt`); at most ``max_iter``
+        iterations (default :attr:`FitOptions.max_iter`). The answer, IPOPT status,
+        iterations, the nearly feasible iterates kept (``near``), whether it stalled."""
         opts = self.opts
         extra = {} if opts.mu_max is None else {"mu_max": opts.mu_max}
-        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, {**extra, **opts.ipopt},
-                               opts.log_file)
-        progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
-                             self.ubx, self.r2_of, self.row is not None,
-                             self.log if opts.verbose else None,
-                            feasible_tol=opts.tol if opts.keep_best_feasible else None)
-        solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
-                           {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
-                            "jac_g": self.jac_g,
-                            # a NaN stability row is a deliberate step cut-back, not news
-                            "show_eval_warnings": False})
+        if warm is not None:
+            extra.update(opts.warm_ipopt)
+        ipopt = ipopt_settings(opts.hessian, max_iter or opts.max_iter, opts.tol,
+                               {**extra, **opts.ipopt}, opts.log_file)
+        if warm is not None:
+            w0 = self.unknowns(warm)
         w0 = np.clip(w0, self.lo, self.hi)
-        e0 = self.err(w0).full().ravel()
+        e0 = self.err(w0).full().ravel() if warm is None else warm.x[self.n_w:]
         self.cap[0] = None
+        ratchet = None
         if self.row is not None and opts.iterate_radius_slack is not None:
             # per-step units; the start's own radius if that is higher (a start above the
             # bound must still be able to move)
@@ -135,8 +193,28 @@ class FitSolver:
             top = max(root(self.bound), root(r0) if np.isfinite(r0) else 0.0)
             cap = top + opts.iterate_radius_slack
             self.cap[0] = cap ** 2 if self.per_step else cap
+            if opts.ratchet_cap:
+                low = root(self.bound) + opts.iterate_radius_slack
+                ratchet = (self.cap, low ** 2 if self.per_step else low)
+        progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
+                            self.ubx, self.r2_of, self.row is not None,
+                            self.log if opts.verbose else None,
+                            feasible_tol=opts.tol if opts.keep_best_feasible else None,
+                            ratchet=ratchet, near_tol=opts.polish_infeasibility,
+                            near_keep=opts.polish_keep,
+                            stall=None if opts.stall_window is None else Stall(
+                                opts.stall_window, opts.stall_rtol, opts.stall_infeasibility))
+        solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
+                           {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
+                            "jac_g": self.jac_g,
+                            # a NaN stability row is a deliberate step cut-back, not news
+                            "show_eval_warnings": False})
         t0 = time.perf_counter()
-        sol = solver(x0=np.r_[w0, e0], lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        args = {"x0": np.r_[w0, e0], "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg,
+                "ubg": self.ubg}
+        if warm is not None and warm.lam_x is not None:
+            args.update(lam_x0=warm.lam_x, lam_g0=warm.lam_g)
+        sol = solver(**args)
         interrupt.check()  # Ctrl-C inside IPOPT ends the solve, not the run: re-raise it
         st = solver.stats()
         success = succeeded(st["return_status"])
@@ -157,6 +235,9 @@ class FitSolver:
         if self.extra is not None:
             f -= float(self.extra(x[: self.n_w]))
         return {"w": x[: self.n_w], "objective": f,
+                # IPOPT's multipliers at its answer (a stored warm start, :meth:`warm_start_of`)
+                "lam_x": np.asarray(sol["lam_x"], float).ravel(),
+                "lam_g": np.asarray(sol["lam_g"], float).ravel(),
                 "status": st["return_status"],
                 # IPOPT leaves iter_count unset when it never iterated (an invalid option)
                 "iterations": int(st["iter_count"]) if progress.history else 0,
@@ -165,4 +246,7 @@ class FitSolver:
                 #: the iteration whose iterate ``w`` is when the solve did not succeed (None:
                 #: ``w`` is IPOPT's answer, or there was no feasible iterate)
                 "fallback_iteration": fallback,
+                #: nearly feasible iterates for the simulator to polish (FitOptions.polish_*)
+                "near": progress.near,
+                "stalled": progress.stalled,
                 "history": progress.history}

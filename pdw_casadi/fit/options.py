@@ -52,6 +52,11 @@ class FitOptions:
     #: 0.01 keeps every iterate's rho_32 at or below max_radius, where fits used to leave
     #: the stable region for hundreds of iterations (docs/results/fit.md)
     iterate_radius_slack: float | None = 0.01
+    #: a start above the bound may rise to its own radius + ``iterate_radius_slack``; with
+    #: ``ratchet_cap`` the cap comes down to the bound + ``iterate_radius_slack`` once an
+    #: iterate's row first reaches it, so that no later step leaves the stable region
+    #: (pdw_casadi.nlp.driver.Progress; docs/results/fit.md)
+    ratchet_cap: bool = False
     #: a constraint knee R^2 >= floor: "reference" (the R^2 of the problem's own compliance
     #: on the same curves, when it has a gait), a number, or None (no floor); the sum of
     #: 1 - R^2 alone may trade knee for hip below the problem file's own knee. Only with
@@ -99,6 +104,30 @@ class FitOptions:
     #: (:attr:`~pdw_casadi.fit.result.Candidate.certified`): stable and valid as checked, but
     #: not shown to be the NLP's optimum
     keep_best_feasible: bool = True
+    #: when a solve gives no stable valid gait (it stopped short, stalled, or its answer
+    #: failed the simulator's checks), the fit polishes the ``polish_keep`` lowest-objective
+    #: iterates whose largest row or bound violation was at most ``polish_infeasibility``
+    #: on the simulator (Newton on the Poincare map at the iterate's parameters from its
+    #: section state) and takes the best stable valid one, marked not certified (None: off)
+    polish_infeasibility: float | None = 1e-2
+    polish_keep: int = 3
+    #: a solve is stopped as stalled when over ``stall_window`` iterations its objective
+    #: moved by at most ``stall_rtol`` of its size while its least infeasibility stayed above
+    #: ``stall_infeasibility`` and did not fall below half the least one before
+    #: (pdw_casadi.nlp.driver.Stall; None: never); its iterates are then polished as above
+    #: and, ``stall_restarts`` times per start, a new round starts from the polished gait
+    stall_window: int | None = 30
+    stall_rtol: float = 1e-3
+    stall_infeasibility: float = 1e-5
+    stall_restarts: int = 1
+    #: IPOPT's options of a warm restart from a kept iterate with its multipliers: the
+    #: iterate is taken as it is (tiny bound pushes) and the barrier starts small, so that
+    #: the restart does not leave the point it starts from
+    warm_ipopt: dict = field(default_factory=lambda: {
+        "warm_start_init_point": "yes", "warm_start_bound_push": 1e-9,
+        "warm_start_bound_frac": 1e-9, "warm_start_slack_bound_push": 1e-9,
+        "warm_start_slack_bound_frac": 1e-9, "warm_start_mult_bound_push": 1e-9,
+        "mu_init": 1e-6})
     resim_steps: int = 20  # steps of the re-simulation check
     resim_tol: float = 1e-6  # largest accepted re-simulation deviation (rad, rad/s)
     verbose: bool = True  # one progress line per IPOPT iteration

@@ -53,12 +53,18 @@ class Candidate:
     resim_tol: float = FitOptions.resim_tol
     #: IPOPT's return status of the solve this gait came from (None: no solve)
     solver_status: str | None = None
+    #: the IPOPT iteration whose iterate the simulator polished into this gait (None: the
+    #: solve's answer, or its best feasible iterate when it stopped short)
+    polished_from: int | None = None
 
     @property
     def certified(self) -> bool:
         """True: IPOPT's converged answer (or no solve); False: the best feasible iterate of
-        a solve that stopped short (checked the same way, not shown to be the NLP's optimum)."""
-        return self.solver_status is None or succeeded(self.solver_status)
+        a solve that stopped short, or an iterate polished on the simulator (checked the same
+        way, not shown to be the NLP's optimum)."""
+        if self.solver_status is None:
+            return True
+        return succeeded(self.solver_status) and self.polished_from is None
 
     @property
     def stable(self) -> bool:

@@ -40,6 +40,17 @@ class MapFit(Protocol):
     def check(self, nlp, out: dict):
         """The checked candidate of a successful solve ``out`` (None: no fixed point)."""
 
+    def polish(self, nlp, w):
+        """The simulator's periodic gait polished from ``nlp``'s unknowns ``w`` (Newton on
+        the map at their parameters from their section state), checked like an answer and
+        re-simulated from its own fixed point (None: no fixed point there)."""
+
+    def accepts(self, cand) -> bool:
+        """Whether ``cand`` is an answer: stable within the accepted radius, valid."""
+
+    def rank(self, cand) -> float:
+        """What candidates are ranked by (higher is better): the mean R^2 of the targets."""
+
     def gap(self, cand) -> float:
         """|NLP objective - sum of 1 - R^2 of the re-simulated gait| of ``cand``."""
 
@@ -56,27 +67,72 @@ class MapFit(Protocol):
         """The name of round ``rnd`` in notes (e.g. "start 0 round 1")."""
 
 
-def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
+def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, log=print):
+    """The best accepted gait the simulator polishes from the nearly feasible iterates a
+    solve kept (``out["near"]``, :attr:`FitOptions.polish_infeasibility`), or None: each is
+    polished (:meth:`MapFit.polish`) and the accepted one that ranks highest is returned,
+    marked with the iteration it came from (not certified)."""
+    best = None
+    for k in out.get("near", ()):
+        cand = fit.polish(nlp, solver.unknowns(k))
+        if cand is None or not fit.accepts(cand):
+            continue
+        cand.polished_from = k.iteration
+        if best is None or fit.rank(cand) > fit.rank(best):
+            best = cand
+    if best is not None:
+        log(f"polished iteration {best.polished_from}'s iterate on the simulator: a stable, "
+            f"valid gait")
+    return best
+
+
+def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
     """The rounds of one start (x: section state, p: the map's parameters): (every round's
     checked candidate, the IPOPT solves, notes). A round whose NLP cannot be built, whose
     solve fails or whose answer has no fixed point of the simulator ends the rounds. A solve
     that stops short of convergence but passed through iterates that held every row
     (``FitOptions.keep_best_feasible``) gives the best of them, checked like an answer and
-    marked not certified; it ends the rounds too."""
+    marked not certified; it ends the rounds too. When a solve gives no accepted gait that
+    way, its nearly feasible iterates are polished on the simulator (:func:`polish_iterates`).
+    A stalled solve (``FitOptions.stall_window``) is followed by a warm restart of the same
+    NLP from the least infeasible of its kept iterates, with that iterate's multipliers
+    (``stall_restarts`` per start). ``warm``: a stored solution of the NLP built at (x, p)
+    (:class:`~pdw_casadi.fit.driver.WarmStart`, e.g. an atlas entry's): the first solve
+    starts from it with its multipliers when the NLP has its shape."""
     rounds, solves, notes = [], [], []
     period = "" if fit.steps == 1 else "stride "
-    for rnd in range(opts.rounds):
-        try:
-            nlp = fit.nlp(x, p)
-        except ValueError as exc:
-            notes.append(f"{fit.where(rnd)}: {exc}")
-            log(notes[-1])
-            break
-        log(fit.describe(nlp, rnd))
-        out = fit.solver(nlp).solve(nlp.w0)
+    restarts, rnd = 0, 0
+    restart_from = None  # (nlp, solver, kept iterate) of a stalled solve
+    while rnd < opts.rounds + restarts:
+        if restart_from is None:
+            try:
+                nlp = fit.nlp(x, p)
+            except ValueError as exc:
+                notes.append(f"{fit.where(rnd)}: {exc}")
+                log(notes[-1])
+                break
+            log(fit.describe(nlp, rnd))
+            solver = fit.solver(nlp)
+            point = solver.warm_point(warm) if warm is not None and rnd == 0 else None
+            if point is not None:
+                log(f"{fit.where(rnd)}: warm start from the stored solution at the start, "
+                    f"with its multipliers")
+            out = solver.solve(nlp.w0, warm=point)
+        else:
+            nlp, solver, k = restart_from
+            restart_from = None
+            log(f"{fit.where(rnd)}: warm restart from iteration {k.iteration} (objective "
+                f"{k.objective:.5f}, infeasibility {k.infeasibility:.1e}) with its multipliers")
+            out = solver.solve(nlp.w0, warm=k)
         fallback = out.get("fallback_iteration")
         usable = out["success"] or fallback is not None
         cand = fit.check(nlp, out) if usable else None
+        if cand is not None:
+            cand.objective = out["objective"]
+        if (cand is None or not fit.accepts(cand)) and out.get("near"):
+            polished = polish_iterates(fit, nlp, solver, out, log=log)
+            if polished is not None:
+                cand, fallback = polished, polished.polished_from
         rho = cand.fixed_point.spectral_radius if cand else math.nan
         hist = out["history"]
         at = hist[fallback] if fallback is not None else (hist[-1] if hist else None)
@@ -84,21 +140,34 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
                             out["wall_time_s"], out["objective"], rho,
                             at.spectral_bound if at else math.nan, fallback))
         log(fit.outcome(rnd, out, rho, cand))
+        stalled = bool(out.get("stalled"))
+        if stalled:
+            notes.append(f"{fit.where(rnd)}: stalled after {out['iterations']} iterations "
+                         f"(FitOptions.stall_window)")
+            log(notes[-1])
+        polished = cand is not None and cand.polished_from is not None
         if fallback is not None:
-            notes.append(f"{fit.where(rnd)}: {out['status']}; its best feasible iterate "
-                         f"(iteration {fallback}, objective {out['objective']:.5f}) "
-                         + ("checked on the simulator, not certified optimal" if cand else
+            notes.append(f"{fit.where(rnd)}: {out['status']}; its "
+                         + ("nearly feasible iterate (iteration " if polished else
+                            "best feasible iterate (iteration ") + f"{fallback}) "
+                         + (("polished" if polished else "checked") +
+                            " on the simulator, not certified optimal" if cand else
                             f"has no {period}fixed point of the simulator"))
             log(notes[-1])
+        if cand is not None:
+            cand.solver_status = out["status"]
+            rounds.append(cand)
+        rnd += 1
+        if stalled and restarts < opts.stall_restarts and out["near"]:
+            restarts += 1
+            restart_from = (nlp, solver, min(out["near"], key=lambda k: k.infeasibility))
+            continue
         if cand is None:
             if fallback is None:
-                notes.append(f"{fit.where(rnd)}: {out['status']}"
+                notes.append(f"{fit.where(rnd - 1)}: {out['status']}"
                              + (f"; no {period}fixed point of the simulator there"
                                 if out["success"] else ""))
             break
-        cand.objective = out["objective"]
-        cand.solver_status = out["status"]
-        rounds.append(cand)
         if not out["success"]:
             break
         # one more round, built at the answer, when the objective's sample brackets moved or
@@ -111,4 +180,4 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print):
     return rounds, solves, notes
 
 
-__all__ = ["OBJECTIVE_FLOOR", "MapFit", "fit_rounds"]
+__all__ = ["OBJECTIVE_FLOOR", "MapFit", "fit_rounds", "polish_iterates"]

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.fit.driver import WarmStart
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores
 from pdw_casadi.gait.fixed_point import own_fixed_point
@@ -37,6 +38,8 @@ class Start:
     parameters: np.ndarray
     score: float = float("nan")
     spectral_radius: float = float("nan")
+    #: a stored solution of the NLP built at this gait (None: none; a fit then starts cold)
+    warm: WarmStart | None = None
 
 
 @dataclass
@@ -49,6 +52,12 @@ class AtlasEntry:
     parameters: np.ndarray
     spectral_radius: float
     curves: pd.DataFrame
+    #: the solution and multipliers of the fit's NLP built at this gait
+    #: (:meth:`~pdw_casadi.fit.driver.FitSolver.warm_start_of`), stored beside the atlas
+    #: file (``<atlas>.warm.npz``) under ``warm_key``; None: none
+    warm: WarmStart | None = None
+    #: the FitOptions fields that shape that NLP (:func:`warm_key`) when it was solved
+    warm_key: str = ""
 
     def to_dict(self) -> dict:
         return {"label": self.label, "state": self.state.tolist(),
@@ -61,6 +70,32 @@ class AtlasEntry:
         return cls(d["label"], np.asarray(d["state"], float),
                    np.asarray(d["parameters"], float), float(d["spectral_radius"]),
                    pd.DataFrame(d["curves"]))
+
+
+def warm_key(opts: FitOptions) -> str:
+    """The settings a stored warm start is valid for: those that shape the fit's NLP."""
+    return (f"stride{opts.sample_stride}-{opts.stability_bound}{opts.stability_power}-"
+            f"headroom{opts.segment_headroom_s:g}-slope{int(opts.free_slope)}")
+
+
+def warm_path(atlas: Path) -> Path:
+    """The file of an atlas's warm starts, beside it."""
+    return atlas.with_suffix(".warm.npz")
+
+
+def _load_warm(p: Path, entries: list[AtlasEntry]) -> None:
+    wp = warm_path(p)
+    if not wp.is_file():
+        return
+    with np.load(wp, allow_pickle=False) as z:
+        for e in entries:
+            if f"{e.label}/w" not in z:
+                continue
+            row = z[f"{e.label}/lam_row"]
+            e.warm = WarmStart(z[f"{e.label}/w"], z[f"{e.label}/lam_w"],
+                               z[f"{e.label}/lam_shooting"],
+                               None if row.size == 0 else float(row[0]))
+            e.warm_key = str(z[f"{e.label}/key"])
 
 
 def atlas_path(problem_name: str) -> Path:
@@ -78,16 +113,32 @@ def load_atlas(problem, path: str | Path | None = None) -> list[AtlasEntry]:
     if list(data["parameter_names"]) != list(problem.parameter_names):
         raise ValueError(f"{p}: the atlas is for parameters {data['parameter_names']}, "
                          f"not {list(problem.parameter_names)}")
-    return [AtlasEntry.from_dict(d) for d in data["entries"]]
+    entries = [AtlasEntry.from_dict(d) for d in data["entries"]]
+    _load_warm(p, entries)
+    return entries
 
 
-def save_atlas(problem, entries: list[AtlasEntry], path: str | Path) -> Path:
+def save_atlas(problem, entries: list[AtlasEntry], path: str | Path,
+               warm_file: str | Path | None = None) -> Path:
+    """Write the atlas ``entries`` to ``path`` (JSON) and their warm starts to
+    ``warm_file`` (default: :func:`warm_path` of ``path``)."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps({"problem": problem.name,
                              "parameter_names": list(problem.parameter_names),
                              "state_names": list(problem.state_names),
                              "entries": [e.to_dict() for e in entries]}, indent=1))
+    arrays = {}
+    for e in entries:
+        if e.warm is None:
+            continue
+        arrays.update({f"{e.label}/w": e.warm.w, f"{e.label}/lam_w": e.warm.lam_w,
+                       f"{e.label}/lam_shooting": e.warm.lam_shooting,
+                       f"{e.label}/lam_row": np.array([] if e.warm.lam_row is None
+                                                      else [e.warm.lam_row]),
+                       f"{e.label}/key": np.array(e.warm_key)})
+    with open(Path(warm_file) if warm_file else warm_path(p), "wb") as f:
+        np.savez_compressed(f, **arrays)
     return p
 
 
@@ -148,8 +199,10 @@ def select_starts(problem, human, opts: FitOptions) -> list[Start]:
         s = fit_scores(curves, h)
         return float(np.mean([s[f"r2_{t}"] for t in opts.targets()]))
 
+    key = warm_key(opts)
     starts = [Start(f"atlas:{e.label}", e.state, e.parameters, score(e.curves),
-                    e.spectral_radius) for e in entries]
+                    e.spectral_radius, e.warm if e.warm_key == key else None)
+              for e in entries]
     gait = own_gait(problem)
     if gait is not None:
         own.score, own.spectral_radius = score(gait[0]), gait[1]

@@ -95,12 +95,18 @@ class StrideCandidate:
     max_radius: float = FitOptions.max_radius ** 2
     #: IPOPT's return status of the solve this stride came from (None: no solve)
     solver_status: str | None = None
+    #: the IPOPT iteration whose iterate the simulator polished into this gait (None: the
+    #: solve's answer, or its best feasible iterate when it stopped short)
+    polished_from: int | None = None
 
     @property
     def certified(self) -> bool:
         """True: IPOPT's converged answer (or no solve); False: the best feasible iterate of
-        a solve that stopped short (checked the same way, not shown to be the NLP's optimum)."""
-        return self.solver_status is None or succeeded(self.solver_status)
+        a solve that stopped short, or an iterate polished on the simulator (checked the same
+        way, not shown to be the NLP's optimum)."""
+        if self.solver_status is None:
+            return True
+        return succeeded(self.solver_status) and self.polished_from is None
 
     @property
     def stable(self) -> bool:
@@ -212,6 +218,22 @@ class StrideFit:
         opts = self.opts
         return evaluate_stride(nlp.stride_map, u["xs_steps"], u["p"], self.sides,
                                opts.resim_steps, opts.resim_tol, opts.stride_max_radius)
+
+    def polish(self, nlp, w) -> StrideCandidate | None:
+        cand = self.check(nlp, {"w": w})
+        if cand is not None:
+            # the gait is the simulator's stride fixed point, not the iterate: re-simulate it
+            cand.resimulation_deviation = nlp.stride_map.resimulation_deviation(
+                [cand.state], cand.theta, self.opts.resim_steps)
+            cand.objective = sum(1 - cand.scores[k.split(".")[0]][f"r2_{k.split('.')[1]}"]
+                                 for k in self.keys)
+        return cand
+
+    def accepts(self, cand: StrideCandidate) -> bool:
+        return cand.good
+
+    def rank(self, cand: StrideCandidate) -> float:
+        return cand.mean_score(self.opts.targets())
 
     def gap(self, cand: StrideCandidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][

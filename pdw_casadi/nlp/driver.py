@@ -162,12 +162,41 @@ def capped(v: float, cap: list | None) -> float:
 
 @dataclass
 class FeasibleIterate:
-    """The lowest-objective IPOPT iterate that held every row and bound to the feasibility
-    tolerance: its iteration, objective and unknowns."""
+    """An IPOPT iterate kept for later: its iteration, objective, largest row or bound
+    violation (in the rows' own units) and unknowns."""
 
     iteration: int
     objective: float
     x: np.ndarray
+    infeasibility: float = 0.0
+    #: IPOPT's multipliers there (bounds, rows): what a warm restart from it starts with
+    lam_x: np.ndarray | None = None
+    lam_g: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Stall:
+    """When a solve counts as stalled (:class:`Progress` then asks IPOPT to stop): over the
+    last ``window`` iterations the objective moved by at most ``rtol`` of its size, and the
+    least infeasibility among them is above ``min_infeasibility`` and no lower than
+    ``progress`` times the least one before them (IPOPT is wandering, not converging)."""
+
+    window: int
+    rtol: float
+    min_infeasibility: float
+    progress: float = 0.5
+
+    def stalled(self, history: list) -> bool:
+        """Whether the iterates ``history`` (:class:`Iterate`, oldest first) end in a stall."""
+        if len(history) <= self.window:
+            return False
+        last, before = history[-self.window:], history[:-self.window]
+        f = [h.objective for h in last]
+        scale = max(abs(f[-1]), 1e-12)
+        least = min(h.infeasibility for h in last)
+        least_before = min(h.infeasibility for h in before)
+        return (max(f) - min(f) <= self.rtol * scale and least > self.min_infeasibility
+                and least >= self.progress * least_before)
 
 
 class Progress(ca.Callback):
@@ -176,16 +205,32 @@ class Progress(ca.Callback):
     within an iteration and the caller's :func:`pdw_casadi.engine.interrupt.check` raises.
     With ``feasible_tol`` it keeps :attr:`best_feasible`, the lowest-objective iterate whose
     largest row or bound violation (in the rows' own units) is at most ``feasible_tol``: what
-    a solve that stops short of convergence still has to offer."""
+    a solve that stops short of convergence still has to offer.
+
+    ``ratchet`` ((cap, lowered), with the stability row last): once an iterate's stability
+    row is at or below ``lowered``, the cap (:func:`nlp_functions`, read at every evaluation)
+    comes down to ``lowered`` for the rest of the solve: a start above the bound may move
+    freely until it first reaches the stable region, and from then on no step leaves it.
+
+    ``near_tol``, ``near_keep``: it also keeps :attr:`near`, the ``near_keep``
+    lowest-objective iterates whose violation is at most ``near_tol`` (nearly feasible: the
+    simulator can polish them into a periodic gait). ``stall`` (:class:`Stall`): it asks
+    IPOPT to stop (``User_Requested_Stop``, :attr:`stalled` True) once the solve stalls."""
 
     def __init__(self, n, m, lbg, ubg, lbx, ubx, r2_of, has_row: bool, log,
-                 feasible_tol: float | None = None):
+                 feasible_tol: float | None = None, ratchet: tuple | None = None,
+                 near_tol: float | None = None, near_keep: int = 0,
+                 stall: Stall | None = None):
         ca.Callback.__init__(self)
         self.n, self.m = n, m
         self.lbg, self.ubg, self.lbx, self.ubx = lbg, ubg, lbx, ubx
         self.r2_of, self.has_row, self.log = r2_of, has_row, log
         self.feasible_tol = feasible_tol
+        self.ratchet = ratchet
         self.best_feasible: FeasibleIterate | None = None
+        self.near_tol, self.near_keep, self.stall = near_tol, near_keep, stall
+        self.near: list[FeasibleIterate] = []
+        self.stalled = False
         self.t0 = time.perf_counter()
         self.iter = 0
         self.history: list[Iterate] = []
@@ -224,11 +269,29 @@ class Progress(ca.Callback):
                      float(g[-1]) if self.has_row else float("nan"),
                      time.perf_counter() - self.t0)
         self.history.append(it)
+        if self.ratchet is not None and self.has_row:
+            cap, lowered = self.ratchet
+            if cap[0] is not None and lowered < cap[0] and g[-1] <= lowered:
+                cap[0] = lowered
         # NaN (a capped stability row) is never feasible: the comparison is False
         if self.feasible_tol is not None and inf <= self.feasible_tol and np.isfinite(g).all() and (
                 self.best_feasible is None or it.objective < self.best_feasible.objective):
-            self.best_feasible = FeasibleIterate(self.iter, it.objective, x.copy())
+            self.best_feasible = FeasibleIterate(self.iter, it.objective, x.copy(), inf)
+        if self.near_tol is not None and self.near_keep > 0 and inf <= self.near_tol and \
+                np.isfinite(g).all():
+            self.near.append(FeasibleIterate(
+                self.iter, it.objective, x.copy(), inf,
+                np.asarray(d["lam_x"], float).ravel().copy(),
+                np.asarray(d["lam_g"], float).ravel().copy()))
+            self.near = sorted(self.near, key=lambda k: k.objective)[: self.near_keep]
         self.iter += 1
         if self.log is not None:
             self.log(it.line())
+        if self.stall is not None and self.stall.stalled(self.history):
+            self.stalled = True
+            if self.log is not None:
+                self.log(f"stalled: the objective moved by at most {self.stall.rtol:g} of its "
+                         f"size and the infeasibility did not fall over the last "
+                         f"{self.stall.window} iterations; stopping")
+            return [1]
         return [0]

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from pdw_casadi.engine.clock import Stopwatch
 from pdw_casadi.engine.compile import build_libraries
 from pdw_casadi.fit import (
     Candidate,
@@ -87,6 +88,8 @@ class FitRun:
     faces: WalkerFaces
     #: the walker's hybrid system (the units of the summary)
     system: HybridSystem
+    #: wall time (s) of each part of the run (:class:`~pdw_casadi.engine.clock.Stopwatch`)
+    times: Stopwatch | None = None
 
 
 @dataclass
@@ -160,33 +163,43 @@ def run_fit(problem, human, opts: FitOptions | None = None, workers: int = 1, lo
     check_targets(problem, human, opts)  # before the reference solves
     if before_work is not None:
         before_work()
+    watch = Stopwatch()
     faces = walker_faces(problem)
     comparison_name = faces.comparison_problem
-    # everything the references and the fit call, compiled side by side on a first run
-    build_libraries([*fit_libraries(problem, opts),
-                     *(fixed_point_libraries(load_problem(comparison_name))
-                       if comparison_name else ())], log=log)
-    log("reference: the problem's own compliance on the same data")
-    table3 = reference_gait(problem, human)
-    paper = dict(faces.paper_reported) if faces.paper_reported else None
-    comparison = None
-    if comparison_name is not None:
-        log(f"reference: the comparison walker {comparison_name}")
-        comparison = reference_gait(load_problem(comparison_name), human)
-    res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
+    with watch.part("compiled functions"):
+        # everything the references and the fit call, compiled side by side on a first run
+        build_libraries([*fit_libraries(problem, opts),
+                         *(fixed_point_libraries(load_problem(comparison_name))
+                           if comparison_name else ())], log=log)
+    with watch.part("references"):
+        log("reference: the problem's own compliance on the same data")
+        table3 = reference_gait(problem, human)
+        paper = dict(faces.paper_reported) if faces.paper_reported else None
+        comparison = None
+        if comparison_name is not None:
+            log(f"reference: the comparison walker {comparison_name}")
+            comparison = reference_gait(load_problem(comparison_name), human)
+    with watch.part("fit"):
+        res = fit_gait(problem, human, opts, log=log, workers=workers, scheduler=scheduler)
+    ipopt = sum(s.wall_time_s for s in res.solves)
+    watch.parts["fit"] -= ipopt
+    watch.parts["fit (starts, NLP building, checks)"] = watch.parts.pop("fit")
+    watch.add(f"IPOPT ({sum(s.iterations for s in res.solves)} iterations)", ipopt)
     cand, ok = _pick(res)
     fit_timing = None
     limit_cycle = None
-    if cand is not None:
-        fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
-        two = Simulator(problem).run(cand.state, cand.parameters, steps=2, record=True)
-        limit_cycle = two.trajectory
+    with watch.part("timing and limit cycle"):
+        if cand is not None:
+            fit_timing = fixed_point_timing(problem, cand.state, cand.parameters)
+            two = Simulator(problem).run(cand.state, cand.parameters, steps=2, record=True)
+            limit_cycle = two.trajectory
     norms, norms_source = human_timing(human)
     return FitRun(problem=problem, human=human, options=opts, result=res, candidate=cand,
                   accepted=ok, reference=table3, comparison=comparison,
                   comparison_problem=comparison_name, paper_reported=paper,
                   fit_timing=fit_timing, human_timing=norms, human_timing_source=norms_source,
-                  limit_cycle=limit_cycle, faces=faces, system=hybrid_system(problem))
+                  limit_cycle=limit_cycle, faces=faces, system=hybrid_system(problem),
+                  times=watch)
 
 
 def _run_sides(problem, sides: SideCurves, opts: StrideFitOptions, log,
