@@ -506,3 +506,37 @@ def test_json_of_a_summary_is_still_strict(tmp_path):
 
     p = write_json(tmp_path / "s.json", {"x": float("nan")})
     assert json.loads(p.read_text()) == {"x": None}
+
+
+# -- 10. pdw-scale --subject with a damaged subjects table ------------------------------------
+@pytest.mark.parametrize("case, fragment", [("no mass column", "no column mass_kg"),
+                                            ("mass nan", "outside the adult range"),
+                                            ("height text", "must be numbers")])
+@pytest.mark.parametrize("body", ["deleva", "uniform"])
+def test_10_scale_refuses_a_damaged_subjects_table_before_any_progress_line(
+        tmp_path, capsys, monkeypatch, case, fragment, body):
+    """The subjects table is checked before the first progress line: a missing column or a
+    mass/height that is not a number in the table's range ends in one error line naming the
+    table, exit code 2, nothing written (it was an internal KeyError, or a progress line
+    followed by the error)."""
+    import pandas as pd
+
+    from pdw_casadi.engine.resources import bundled_dir
+    from pdw_casadi.studies import scaling
+
+    table = pd.read_csv(bundled_dir("data") / scaling.SUBJECTS_FILE)
+    if case == "no mass column":
+        table = table.drop(columns="mass_kg")
+    elif case == "mass nan":
+        table["mass_kg"] = float("nan")
+    else:
+        table["height_m"] = table["height_m"].astype(object)
+        table.loc[:, "height_m"] = "tall"
+    path = tmp_path / "subjects.csv"
+    table.to_csv(path, index=False)
+    monkeypatch.setattr(scaling, "SUBJECTS_FILE", str(path))  # an absolute path wins
+    out = tmp_path / "w.toml"
+    code, _, err = run(capsys, scale_main, ["--subject", str(table["subject_id"][0]),
+                                            "--body", body, "--out", str(out)])
+    one_error_line(code, err, "subjects.csv", fragment)
+    assert not out.exists()

@@ -17,6 +17,8 @@ from pdw_casadi.cli.contract import (
 from pdw_casadi.model.problem import ProblemError, load_problem
 from pdw_casadi.studies.scaling import (
     BODY_MAX_RADIUS,
+    HEIGHT_RANGE_M,
+    MASS_RANGE_KG,
     SEXES,
     check_scalable,
     problem_toml,
@@ -42,10 +44,10 @@ def scale_main(argv=None) -> int:
     """
     parser = Parser(prog="pdw-scale", description="Scale the walker to a subject's body "
                     "(de Leva 1996 segment table).")
-    parser.add_argument("--mass", type=open_interval("--mass", 20.0, 200.0), metavar="KG",
-                        help="body mass, kg (20..200)")
-    parser.add_argument("--height", type=open_interval("--height", 1.2, 2.2), metavar="M",
-                        help="height, m (1.2..2.2)")
+    parser.add_argument("--mass", type=open_interval("--mass", *MASS_RANGE_KG), metavar="KG",
+                        help="body mass, kg ({:g}..{:g})".format(*MASS_RANGE_KG))
+    parser.add_argument("--height", type=open_interval("--height", *HEIGHT_RANGE_M),
+                        metavar="M", help="height, m ({:g}..{:g})".format(*HEIGHT_RANGE_M))
     parser.add_argument("--sex", choices=SEXES, default="female")
     parser.add_argument("--subject", metavar="ID",
                         help="a bundled subject (mass, height and sex from "

@@ -95,6 +95,25 @@ def reference_mass(problem: Problem) -> float:
     return a["m_h"] + 2 * (a["m_t"] + a["m_s"] + a["m_f"])
 
 
+#: the adult range of de Leva's (1996) table that a subject's body is scaled within
+MASS_RANGE_KG = (20.0, 200.0)
+HEIGHT_RANGE_M = (1.2, 2.2)
+
+
+def check_subject_body(mass_kg, height_m, where: str = "subject") -> None:
+    """Raise :class:`ProblemError` unless ``mass_kg`` (kg) and ``height_m`` (m) are finite
+    numbers within the table's adult range (:data:`MASS_RANGE_KG`, :data:`HEIGHT_RANGE_M`)."""
+    (m0, m1), (h0, h1) = MASS_RANGE_KG, HEIGHT_RANGE_M
+    try:
+        mass, height = float(mass_kg), float(height_m)
+    except (TypeError, ValueError):
+        raise ProblemError(f"{where}: mass {mass_kg!r} kg / height {height_m!r} m must be "
+                           f"numbers") from None
+    if not (m0 <= mass <= m1 and h0 <= height <= h1):  # NaN fails both
+        raise ProblemError(f"{where}: mass {mass_kg} kg / height {height_m} m outside the "
+                           f"adult range of the table ({m0:g}-{m1:g} kg, {h0:g}-{h1:g} m)")
+
+
 def subject_anthropometry(mass_kg: float, height_m: float, sex: str = "female",
                           reference: Problem | None = None) -> dict[str, float]:
     """The 6-link walker's anthropometry (m, kg, kg m^2) for a subject, from de Leva (1996)
@@ -102,9 +121,7 @@ def subject_anthropometry(mass_kg: float, height_m: float, sex: str = "female",
     inertia from the reference body (Table 1) scaled to the subject (see module docstring)."""
     if sex not in DE_LEVA_1996:
         raise ProblemError(f"sex must be one of {', '.join(SEXES)}, got {sex!r}")
-    if not (20.0 <= mass_kg <= 200.0 and 1.2 <= height_m <= 2.2):
-        raise ProblemError(f"subject mass {mass_kg} kg / height {height_m} m outside the "
-                           f"adult range of the table (20-200 kg, 1.2-2.2 m)")
+    check_subject_body(mass_kg, height_m)
     ref = reference or load_problem("humanlike_6link")
     r = ref.anthropometry
     t = DE_LEVA_1996[sex]
@@ -540,11 +557,20 @@ def subject_row(subject_id: str) -> dict:
 
     from pdw_casadi.engine.resources import bundled_dir
 
-    table = pd.read_csv(bundled_dir("data") / SUBJECTS_FILE)
+    path = bundled_dir("data") / SUBJECTS_FILE
+    table = pd.read_csv(path)
+    missing = [c for c in ("subject_id", "mass_kg", "height_m", "sex") if c not in table]
+    if missing:
+        raise ProblemError(f"{path}: the subjects table has no column "
+                           f"{', '.join(missing)}")
     row = table[table["subject_id"] == subject_id]
     if row.empty:
         raise ProblemError(f"unknown subject {subject_id!r}; known: "
                            f"{', '.join(table['subject_id'])}")
     r = row.iloc[0]
     sex = {"F": "female", "M": "male"}.get(str(r["sex"]), str(r["sex"]))
+    if sex not in SEXES:
+        raise ProblemError(f"{path}: subject {subject_id}: sex must be F or M, got "
+                           f"{r['sex']!r}")
+    check_subject_body(r["mass_kg"], r["height_m"], f"{path}: subject {subject_id}")
     return {"mass_kg": float(r["mass_kg"]), "height_m": float(r["height_m"]), "sex": sex}
