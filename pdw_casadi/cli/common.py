@@ -17,7 +17,13 @@ from pdw_casadi.cli.contract import (
     output_path,
 )
 from pdw_casadi.engine.errors import ProblemError
-from pdw_casadi.model.problem import Problem, check_bounds, load_overrides, load_problem
+from pdw_casadi.model.problem import (
+    DEFAULT_PROBLEM,
+    Problem,
+    check_bounds,
+    load_overrides,
+    load_problem,
+)
 
 #: the largest --steps of pdw-simulate (every step's trajectory is kept and written)
 MAX_STEPS = 1000
@@ -46,7 +52,7 @@ def common_parser(out_default: str | None = None) -> argparse.ArgumentParser:
     (required unless the command gives ``out_default``)."""
     parent = argparse.ArgumentParser(add_help=False)
     g = parent.add_argument_group("problem and output")
-    g.add_argument("--problem", default="humanlike_6link", metavar="NAME_OR_PATH",
+    g.add_argument("--problem", default=DEFAULT_PROBLEM, metavar="NAME_OR_PATH",
                    help="bundled problem name or path to a problem TOML "
                         "(default: %(default)s)")
     g.add_argument("--state", type=Path, metavar="FILE",

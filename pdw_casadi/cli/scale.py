@@ -14,7 +14,7 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.model.problem import ProblemError, load_problem
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, ProblemError, load_problem
 from pdw_casadi.studies.scaling import (
     BODY_MAX_RADIUS,
     HEIGHT_RANGE_M,
@@ -57,7 +57,7 @@ def scale_main(argv=None) -> int:
                         default=BODY_MAX_RADIUS, metavar="R",
                         help="de Leva body: the largest spectral radius of the gait written "
                              "(default: %(default)s)")
-    parser.add_argument("--problem", default="humanlike_6link",
+    parser.add_argument("--problem", default=DEFAULT_PROBLEM,
                         help="reference problem (default: %(default)s)")
     parser.add_argument("--out", type=output_path("--out"), required=True, metavar="FILE.toml")
     args = parser.parse_args(argv)

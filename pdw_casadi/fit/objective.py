@@ -17,6 +17,7 @@ import numpy as np
 
 from pdw_casadi.engine.errors import CurveError
 from pdw_casadi.gait.curves import cycle_time
+from pdw_casadi.model.gait_data import CYCLE_POINTS
 
 #: two samples of one part further apart than this many times its median sample spacing do
 #: not bracket the cycle points between them (a gap in the part, not an RK4 interval; the
@@ -89,7 +90,7 @@ def interpolated_errors(nlp, pct: dict, model, human, targets) -> dict:
     at the starting gait (``nlp.w0``); the part whose bracket holds the point is chosen."""
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}
-    h = human.resample(101)
+    h = human.resample(CYCLE_POINTS)
     grid = np.asarray(h.cycle_pct, float)
     # leg 2's samples run 50..100 % then 0..1.6 %: bracket in cycle order, not time order
     order = {leg: np.argsort(pct0[leg], kind="stable") for leg in pct}

@@ -26,6 +26,7 @@ from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.curves import cycle_curves, fit_scores
 from pdw_casadi.gait.fixed_point import own_fixed_point
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.gait_data import CYCLE_POINTS
 
 
 @dataclass
@@ -193,7 +194,7 @@ def select_starts(problem, human, opts: FitOptions) -> list[Start]:
                                             np.maximum(1.0, np.abs(p0[held])))]
     if not entries:
         return [own]
-    h = human.resample(101)
+    h = human.resample(CYCLE_POINTS)
 
     def score(curves: pd.DataFrame) -> float:
         s = fit_scores(curves, h)

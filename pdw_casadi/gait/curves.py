@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from pdw_casadi.model.gait_data import CYCLE_POINTS
+
 CURVES = ("knee", "hip", "thigh")
 
 
@@ -39,7 +41,7 @@ def cycle_time(t, leg: int, T, t_hs=None, after_hs: bool = True):
 
 
 def gait_cycle(step: pd.DataFrame, heel_strike_phase: str | None,
-               n: int = 101) -> pd.DataFrame:
+               n: int = CYCLE_POINTS) -> pd.DataFrame:
     """Model curves over one gait cycle (deg) from one recorded step at a fixed point.
 
     ``step``: the trajectory rows of one step (columns t, phase, knee1_deg, knee2_deg,

@@ -29,6 +29,7 @@ import pandas as pd
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.model.gait_data import CYCLE_POINTS
 from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
 from pdw_casadi.model.system import (  # noqa: F401 (the per-leg walker, re-exported)
     per_leg_system,
@@ -136,7 +137,7 @@ def stride_timing(smap: PoincareMap, x, theta=None) -> dict:
 
 
 def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str | None,
-                 n: int = 101) -> pd.DataFrame:
+                 n: int = CYCLE_POINTS) -> pd.DataFrame:
     """Knee, hip and thigh curves (deg) of the leg that is leg 1 in step ``own`` and leg 2
     in step ``other`` (the two recorded steps of a stride at its fixed point), over that
     leg's gait cycle from its heel strike to its next one, at 0..100 % (``n`` points)."""

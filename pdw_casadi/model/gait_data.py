@@ -49,6 +49,7 @@ from pdw_casadi.engine.errors import GaitDataError
 
 __all__ = [
     "ANGLE_COLUMNS",
+    "CYCLE_POINTS",
     "MIN_ROWS",
     "OPTIONAL_COLUMNS",
     "REQUIRED_COLUMNS",
@@ -84,6 +85,10 @@ SD_COLUMNS: tuple[str, ...] = tuple(c for c in OPTIONAL_COLUMNS if c.endswith("_
 
 ANGLE_COLUMNS: tuple[str, ...] = ("knee_mean_deg", "hip_mean_deg", "thigh_mean_deg")
 """Mean-angle columns checked by the radians heuristic (the pelvis is not: see below)."""
+
+#: samples of one gait cycle, 0..100 % at every 1 % like the human data: the grid the
+#: curves are resampled to, fitted and reported on
+CYCLE_POINTS = 101
 
 MIN_ROWS = 11
 """Fewest samples accepted over the cycle (a sample at least every 10 % on average)."""
@@ -209,7 +214,7 @@ class GaitCurves:
         """A copy of the validated table (``cycle_pct`` in %, angles in deg)."""
         return self.frame.copy()
 
-    def resample(self, n: int = 101) -> GaitCurves:
+    def resample(self, n: int = CYCLE_POINTS) -> GaitCurves:
         """The curves on ``n`` evenly spaced points from 0 to 100 % (linear interpolation).
 
         Every numeric column is interpolated linearly in ``cycle_pct`` (standard deviations
@@ -494,7 +499,7 @@ class SideCurves:
             raise ValueError(f"side must be one of {SIDES}, got {side!r}")
         return self.left if side == "left" else self.right
 
-    def mean(self, n: int = 101) -> GaitCurves:
+    def mean(self, n: int = CYCLE_POINTS) -> GaitCurves:
         """The mean of both sides' curves on ``n`` points (each side on its own cycle), the
         curves a symmetric walker fits: columns present on both sides; the SD columns are
         dropped (a mean of two sides' SDs is not an SD of anything)."""

@@ -23,6 +23,9 @@ from pdw_casadi.engine.errors import ProblemError
 from pdw_casadi.engine.resources import bundled_names, resolve
 from pdw_casadi.model.walkers import FAMILIES, get_family
 
+#: the walker a command or study uses when none is named: the bundled problem of the paper's
+#: 6-link walker (Tables 1-3)
+DEFAULT_PROBLEM = "humanlike_6link"
 #: numerical settings with their defaults (s, s)
 NUMERICS_DEFAULTS = {"step_size": 5e-4, "max_phase_time": 2.0}
 #: accepted ranges of the numerical settings (s): below the smallest step size a phase

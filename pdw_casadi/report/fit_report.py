@@ -13,6 +13,7 @@ import pandas as pd
 
 from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.gait.timing import timing_table
+from pdw_casadi.model.gait_data import CYCLE_POINTS
 from pdw_casadi.model.units import summary_units
 from pdw_casadi.report.plots import plot_fit, plot_limit_cycle
 from pdw_casadi.studies.fit_run import FitRun
@@ -53,7 +54,7 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
     cand, ok = run.candidate, run.accepted
     table3, comparison = run.reference, run.comparison
     comparison_name, paper = run.comparison_problem, run.paper_reported
-    h = human.resample(101)
+    h = human.resample(CYCLE_POINTS)
     curves = pd.DataFrame({"cycle_pct": h.cycle_pct, "human_knee_deg": h.knee_deg,
                            "human_hip_deg": h.hip_deg})
     if h.thigh_deg is not None:
@@ -133,7 +134,7 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
                      {**_scores(comparison), "spectral_radius": comparison["spectral_radius"],
                       "stable": comparison["stable"]}))
     head = (f"# Fit of {problem.name} to {Path(str(human.source)).name}\n\n"
-            f"Objective: knee and {res.targets[1]} R^2 (101-point gait cycle, "
+            f"Objective: knee and {res.targets[1]} R^2 ({CYCLE_POINTS}-point gait cycle, "
             f"docs/model.md of pdw-casadi).\n\n")
     summary["timing_human"] = {"values": norms, "source": norms_source}
     timings = {"this fit": fit_timing, "problem file's compliance": table3.get("timing")}

@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 
 from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitResult
-from pdw_casadi.model.gait_data import SIDES
+from pdw_casadi.model.gait_data import CYCLE_POINTS, SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
 from pdw_casadi.report.fit_report import uncertified_note
 from pdw_casadi.report.plots import plot_fit
@@ -45,7 +45,7 @@ def plot_stride_fit(sides, models: dict, path, scores: dict | None = None) -> Fi
     fig = Figure(figsize=(11, 10.5), layout="constrained")
     axes = fig.subplots(2, 2, squeeze=False)
     for row, side in zip(axes, SIDES, strict=True):
-        plot_fit(sides.side(side).resample(101),
+        plot_fit(sides.side(side).resample(CYCLE_POINTS),
                  {f"{label} ({side} leg)": m[side] for label, m in models.items()},
                  None, scores={f"{label} ({side} leg)": s[side]
                                for label, s in (scores or {}).items()}, ax=list(row))
@@ -98,7 +98,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
     out = Path(out)
     problem, sides, opts, res = run.problem, run.sides, run.options, run.result
     cand, ok = run.candidate, run.accepted
-    grid = sides.left.resample(101).cycle_pct
+    grid = sides.left.resample(CYCLE_POINTS).cycle_pct
     cols: dict = {"cycle_pct": grid}
     models: dict = {}
     scores: dict = {}
@@ -109,7 +109,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
         models["stride fit"] = cand.report["curves"]
         scores["stride fit"] = cand.scores
     for s in SIDES:
-        h = sides.side(s).resample(101)
+        h = sides.side(s).resample(CYCLE_POINTS)
         for j in JOINTS:
             for kind in ("deg", "sd_deg"):
                 v = getattr(h, f"{j}_{kind}", None)
@@ -153,7 +153,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
             "certified": cand.certified})
     head = (f"# Per-leg fit of {problem.name} to {Path(str(sides.source)).name}\n\n"
             f"Objective: the sum over both legs of 1 - R^2 of knee and {res.targets[1]}, each "
-            f"leg over its own gait cycle against its side's curves (101 points); free: "
+            f"leg over its own gait cycle against its side's curves ({CYCLE_POINTS} points); free: "
             f"{', '.join(res.free)}.\n\n")
     (out / "table.md").write_text(head + _table(res, cand, comp, start_comp, ok))
     if cand is None:

@@ -72,7 +72,7 @@ from pdw_casadi.fit.stride_fit import StrideFitOptions
 from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
-from pdw_casadi.model.problem import Problem, load_problem, problem_from_dict
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, load_problem, problem_from_dict
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
 from pdw_casadi.studies.scaling import BODY_MAX_RADIUS, problem_toml
 
@@ -116,7 +116,7 @@ class CohortOptions:
     :func:`~pdw_casadi.studies.scaling.stable_subject_walker`).
     """
 
-    problem: str = "humanlike_6link"
+    problem: str = DEFAULT_PROBLEM
     kind: str = "auto"
     body: str = "own"
     fit: StrideFitOptions = field(default_factory=lambda: StrideFitOptions(verbose=False))

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pdw_casadi.model.problem import Problem, ProblemError, load_problem
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, ProblemError, load_problem
 
 #: de Leva (1996), Table 4: reference stature (m), body mass (kg) and per segment
 #: (length m, mass fraction, COM fraction from the proximal end, sagittal radius of
@@ -122,7 +122,7 @@ def subject_anthropometry(mass_kg: float, height_m: float, sex: str = "female",
     if sex not in DE_LEVA_1996:
         raise ProblemError(f"sex must be one of {', '.join(SEXES)}, got {sex!r}")
     check_subject_body(mass_kg, height_m)
-    ref = reference or load_problem("humanlike_6link")
+    ref = reference or load_problem(DEFAULT_PROBLEM)
     r = ref.anthropometry
     t = DE_LEVA_1996[sex]
     k = height_m / t["stature_m"]
@@ -242,7 +242,7 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
     t0 = time.perf_counter()
     opts = options or DesignOptions(hold_margins=True)
     tol = opts.tol
-    ref = reference or load_problem("humanlike_6link")
+    ref = reference or load_problem(DEFAULT_PROBLEM)
     if ref.asymmetric:
         raise ProblemError(f"{ref.name}: the reference body must be symmetric")
     if x_ref is None:
@@ -300,7 +300,7 @@ def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
     rho 0.86 gait gets there in 62 s, 2 shared cores)."""
     from pdw_casadi.gait.fixed_point import find_fixed_point
 
-    ref = reference or load_problem("humanlike_6link")
+    ref = reference or load_problem(DEFAULT_PROBLEM)
     best = None
     t0 = time.perf_counter()
     gaits = reference_gaits(ref)
@@ -478,7 +478,7 @@ def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
        of its curves.
     Never raises for a subject without a stable gait: ``status`` "failed" and ``reason``.
     """
-    ref = reference or load_problem("humanlike_6link")
+    ref = reference or load_problem(DEFAULT_PROBLEM)
     check_scalable(ref)
     t0 = time.perf_counter()
     shipped = scaled_shipped_body(mass_kg, height_m, sex, ref, max_radius)
