@@ -171,12 +171,28 @@ def test_progress_keeps_the_lowest_objective_iterate_that_holds_every_row():
     assert np.array_equal(best.x, [0.5, 0.6])
 
 
-def test_a_fit_stopped_at_its_iteration_limit_gives_its_best_feasible_iterate(problem):
-    """IPOPT stopped short of convergence on the bundled file (it converges at 41): the fit's
-    answer is the best iterate that held every row to IPOPT's tolerance, marked not
-    certified; the simulator finds the same gait there (re-simulation within its tolerance,
-    stable, valid) and its re-simulated 1 - R^2 is the NLP objective at that iterate."""
-    opts = FitOptions(verbose=False, max_iter=40)
+def cold_atlas(problem, tmp_path) -> str:
+    """An atlas of one entry without a stored warm start, whose gait lies above the
+    eight-step bound (its NLP starts infeasible): the bundled file's fit from it takes 41
+    iterations, a trajectory the tests below stop part way."""
+    from pdw_casadi.fit.starts import load_atlas, save_atlas
+
+    entry = next(e for e in load_atlas(problem) if e.label == COLD_ENTRY)
+    assert entry.warm is None
+    return str(save_atlas(problem, [entry], tmp_path / "cold.json"))
+
+
+#: a bundled atlas entry fitted under the spectral-radius row (rho 0.83, eight-step bound 1.2)
+COLD_ENTRY = "humanlike_6link-female_fast-rho0.86"
+
+
+def test_a_fit_stopped_at_its_iteration_limit_gives_its_best_feasible_iterate(problem,
+                                                                             tmp_path):
+    """IPOPT stopped short of convergence on the bundled file (from COLD_ENTRY it converges
+    at 41): the fit's answer is the best iterate that held every row to IPOPT's tolerance,
+    marked not certified; the simulator finds the same gait there (re-simulation within its
+    tolerance, stable, valid) and its re-simulated 1 - R^2 is the NLP objective there."""
+    opts = FitOptions(verbose=False, max_iter=40, atlas=cold_atlas(problem, tmp_path))
     res = fit_gait(problem, load_gait_curves("female_fast.csv"), opts, log=lambda m: None)
     solve = res.solves[-1]
     assert solve.status == "Maximum_Iterations_Exceeded"
@@ -246,13 +262,14 @@ def test_progress_keeps_nearly_feasible_iterates_with_their_multipliers_and_stop
     assert np.array_equal(prog.near[0].x, [0.4, 0.4])
 
 
-def test_the_polish_turns_a_solve_stopped_early_into_a_stable_valid_gait(problem):
-    """IPOPT stopped at 6 iterations on the bundled file, before any iterate held every row
-    to its tolerance (no best feasible iterate): the simulator polishes the nearly feasible
-    iterates (Newton on the map at their compliance) into a stable, valid gait, the answer,
-    not certified; without the polish the same solve has no gait."""
+def test_the_polish_turns_a_solve_stopped_early_into_a_stable_valid_gait(problem, tmp_path):
+    """IPOPT stopped at 6 iterations on the bundled file from COLD_ENTRY, before any iterate
+    held every row to its tolerance (no best feasible iterate): the simulator polishes the
+    nearly feasible iterates (Newton on the map at their compliance) into a stable, valid
+    gait, the answer, not certified; without the polish the same solve has no gait."""
     human = load_gait_curves("female_fast.csv")
-    opts = FitOptions(verbose=False, max_iter=6, rounds=1)
+    atlas = cold_atlas(problem, tmp_path)
+    opts = FitOptions(verbose=False, max_iter=6, rounds=1, atlas=atlas)
     res = fit_gait(problem, human, opts, log=lambda m: None)
     solve = res.solves[-1]
     assert solve.status == "Maximum_Iterations_Exceeded"
@@ -263,7 +280,7 @@ def test_the_polish_turns_a_solve_stopped_early_into_a_stable_valid_gait(problem
     # the polished gait is the simulator's own periodic gait: it re-simulates exactly
     assert best.resimulation_deviation < opts.resim_tol
     off = fit_gait(problem, human, FitOptions(verbose=False, max_iter=6, rounds=1,
-                                              polish_infeasibility=None),
+                                              atlas=atlas, polish_infeasibility=None),
                    log=lambda m: None)
     assert off.best is None
 

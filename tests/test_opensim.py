@@ -315,12 +315,18 @@ def test_fit_command_exports_the_fitted_gait(tmp_path, capsys, monkeypatch):
     assert abs(fp.state[1] - fp.state[0] - (changed.initial_state["q2"]
                                             - changed.initial_state["q1"])) > 1e-6
 
+    from types import SimpleNamespace
+
+    from pdw_casadi.engine.clock import Stopwatch
+
+    the_fit = SimpleNamespace(times=Stopwatch())  # what the command reads of a FitRun
+
     def fake_fit(problem_, human, opts, before_work=None, **kw):
         before_work()  # the command creates its output folder here
-        return "the fit"
+        return the_fit
 
     def fake_report(run, out):
-        assert run == "the fit"
+        assert run is the_fit
         comp, slope = changed.split_parameters(fp.parameters)
         return {"compliance": comp, "slope": slope, "stable": True, "valid": True,
                 "fixed_point": dict(zip(changed.state_names, map(float, fp.state),

@@ -86,9 +86,9 @@ def test_per_leg_fit_runs_through_the_fit_function(monkeypatch):
     seen = []
     rounds = core.fit_rounds
 
-    def spy(fit, x, p, opts, log=print):
+    def spy(fit, x, p, opts, log=print, **kw):
         seen.append(fit)
-        return rounds(fit, x, p, opts, log=log)
+        return rounds(fit, x, p, opts, log=log, **kw)
 
     monkeypatch.setattr(core, "fit_rounds", spy)
     assert fit_stride is fit_gait

@@ -17,7 +17,7 @@ from pdw_casadi.cli.contract import (
 )
 from pdw_casadi.fit.atlas import RADII
 from pdw_casadi.model.gait_data import load_gait_curves
-from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
 
 
 def atlas_main(argv=None) -> int:
@@ -27,7 +27,7 @@ def atlas_main(argv=None) -> int:
     replaced only when the rebuild completes (exit code 1, nothing written, when no target
     gives a stable valid gait)."""
     ap = Parser(prog="pdw-atlas", description="Rebuild a walker's gait atlas.")
-    ap.add_argument("--problem", default="humanlike_6link")
+    ap.add_argument("--problem", default=DEFAULT_PROBLEM)
     ap.add_argument("--radius", type=open_interval("--radius", 0.0, 1.0), nargs="+",
                     default=list(RADII),
                     help="spectral-radius limits of the seeds (default: %(default)s)")
@@ -39,12 +39,15 @@ def atlas_main(argv=None) -> int:
                          "bundled female_fast.csv; none with an empty list)")
     ap.add_argument("--out", type=output_path("--out"), metavar="FILE.json",
                     help="atlas file (default: the bundled one)")
+    ap.add_argument("--keep", action="store_true",
+                    help="keep the entries already in the atlas file that this build does "
+                         "not replace (same label: replaced), after the new ones")
     args = ap.parse_args(argv)
     outputs = Outputs(Path("."))  # one file, staged beside it
 
     def body() -> int:
         from pdw_casadi.fit.atlas import VARIANTS, build_atlas
-        from pdw_casadi.fit.starts import atlas_path, save_atlas, warm_path
+        from pdw_casadi.fit.starts import atlas_path, load_atlas, save_atlas, warm_path
 
         problem = load_problem(args.problem)
         check_curve_walker(problem, "pdw-atlas")
@@ -52,12 +55,16 @@ def atlas_main(argv=None) -> int:
         out = args.out or atlas_path(problem.name)
         check_output_file(out, "--out", (".json",))
         outputs.dir = Path(out)
+        # read before the fits: a damaged or foreign atlas is refused before any work
+        kept = load_atlas(problem, out) if args.keep and Path(out).is_file() else []
         entries = build_atlas(problem, tuple(args.radius),
                               VARIANTS if args.variants == "all" else VARIANTS[:1], curves,
                               log=lambda m: print(m, file=sys.stderr, flush=True))
         if not entries:
             raise NoGait(f"no stable valid gait of {problem.name} for any target (nothing "
                          f"written)")
+        labels = {e.label for e in entries}
+        entries += [e for e in kept if e.label not in labels]
         save_atlas(problem, entries, outputs.wrote(outputs.staged(out)),
                    outputs.wrote(outputs.staged(warm_path(Path(out)))))
         print(f"wrote {out}")
