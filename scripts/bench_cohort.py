@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.studies.cohort import (
     CohortOptions,
@@ -49,15 +49,15 @@ def main() -> None:
     ap.add_argument("--kind", default="symmetric")
     ap.add_argument("--problem", default="humanlike_6link")
     ap.add_argument("--free-slope", action="store_true")
-    ap.add_argument("--max-iter", type=int, default=StrideFitOptions.max_iter)
-    ap.add_argument("--rounds", type=int, default=StrideFitOptions.rounds)
+    ap.add_argument("--max-iter", type=int, default=FitOptions.max_iter)
+    ap.add_argument("--rounds", type=int, default=FitOptions.rounds)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--json", type=Path)
     args = ap.parse_args()
 
     entries, _ = read_study(args.study, args.kind)
-    fit = StrideFitOptions(verbose=False, free_slope=args.free_slope, max_iter=args.max_iter,
-                           rounds=args.rounds)
+    fit = FitOptions(verbose=False, free_slope=args.free_slope, max_iter=args.max_iter,
+                     rounds=args.rounds)
     plan = plan_cohort(entries, CohortOptions(problem=args.problem, kind=args.kind,
                                               body="paper", fit=fit),
                        reference=load_problem(args.problem))

@@ -20,7 +20,7 @@ from pdw_casadi.cli import COMMANDS
 from pdw_casadi.cli.cohort import cohort_main
 from pdw_casadi.engine.errors import UsageError
 from pdw_casadi.engine.parallel import map_tasks
-from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.studies.cohort import (
     CohortOptions,
     FitTask,
@@ -130,7 +130,7 @@ def fake_plan(monkeypatch, tmp_path):
     monkeypatch.setenv(CALLS, str(tmp_path / "calls.txt"))
     entries, _ = read_study([str(SUBJECTS)], "symmetric")
     opts = CohortOptions(problem="humanlike_6link", body="paper",
-                         fit=StrideFitOptions(verbose=False, max_iter=5))
+                         fit=FitOptions(verbose=False, max_iter=5))
     return plan_cohort(entries, opts), tmp_path / "calls.txt"
 
 
@@ -164,8 +164,7 @@ def test_changed_inputs_are_fitted_again(fake_plan, tmp_path):
     run_cohort(plan, out, fit_fn=fake_fit)
     entries, _ = read_study([str(SUBJECTS)], "symmetric")
     other = plan_cohort(entries, CohortOptions(
-        problem="humanlike_6link", body="paper", fit=StrideFitOptions(verbose=False,
-                                                                      max_iter=6)))
+        problem="humanlike_6link", body="paper", fit=FitOptions(verbose=False, max_iter=6)))
     run_cohort(other, out, fit_fn=fake_fit)
     assert len(_calls(calls)) == 8  # another max_iter: every fit again
     # a saved record that is not JSON (a disk that filled up) is redone too

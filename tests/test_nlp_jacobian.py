@@ -57,11 +57,11 @@ def test_structured_jacobian_of_the_compass_gait_nlp_is_casadis():
 def test_structured_jacobian_of_a_stride_nlp_is_casadis():
     """The per-leg walker's two-step NLP (parameters permuted per step, both legs' free
     compliance): the parameter chain rule through the permutations."""
-    from pdw_casadi.gait.stride import StrideMap
+    from pdw_casadi.gait.stride import stride_map
     from pdw_casadi.studies.prosthesis import atlas_problem
 
     base = atlas_problem()
-    smap = StrideMap(base)
+    smap = stride_map(base)
     free = ("left.k_knee", "right.k_knee", "right.k_ankle")
     nlp = ShootingNLP.stride(base, base.state_vector(), smap.default_parameters(), free=free)
     rng = np.random.default_rng(4)

@@ -9,12 +9,11 @@ import pytest
 
 import pdw_casadi.fit.core as core
 from pdw_casadi.engine.resources import bundled_dir
-from pdw_casadi.fit import FitOptions, StrideFitOptions, fit_gait, fit_stride
+from pdw_casadi.fit import FitOptions, fit_gait, fit_stride
 from pdw_casadi.fit.result import FitResult
-from pdw_casadi.fit.stride_fit import StrideFitResult
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap
-from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point, stride_map
+from pdw_casadi.gait.stride import find_stride_fixed_point, stride_map
 from pdw_casadi.model.gait_data import load_side_curves
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.studies.prosthesis import atlas_problem
@@ -35,7 +34,7 @@ def test_the_stride_is_the_step_map_twice_one_class(step):
     own step map."""
     pb, fp = step
     stride, one = PoincareMap(pb, steps=2), PoincareMap(pb)
-    assert type(stride) is type(one) is type(stride_map(pb)) is type(StrideMap(pb))
+    assert type(stride) is type(one) is type(stride_map(pb))
     assert (stride.steps, one.steps) == (2, 1) and stride.per_leg
     # the step map of the walker the stride is built on (its per-leg build)
     one_pl = PoincareMap(pb, hs=stride.hs)
@@ -97,13 +96,15 @@ def test_per_leg_fit_runs_through_the_fit_function(monkeypatch):
     # without the stability row: its blocks are tests/test_shooting.py's (and a per-leg
     # walker's take a minute to compile)
     cheap = dict(rounds=1, max_iter=1, verbose=False, atlas="", stability_constraint=False)
-    per_leg = fit_gait(pb, sides, StrideFitOptions(start="atlas", side="right", **cheap),
+    per_leg = fit_gait(pb, sides, FitOptions(start="atlas", side="right", **cheap),
                        log=lambda m: None)
     sym = fit_gait(pb, sides.mean(), FitOptions(**cheap), log=lambda m: None)
-    assert isinstance(per_leg, StrideFitResult) and isinstance(sym, FitResult)
+    assert isinstance(per_leg, FitResult) and isinstance(sym, FitResult)
+    assert per_leg.start is not None and sym.start is None
     assert [f.steps for f in seen] == [2, 1]
     # the stride's NLP: the two-step map of the one class, only the right leg's compliance
-    nlp = seen[0].nlp(np.asarray(per_leg.start["state"]), np.asarray(per_leg.start["theta"]))
+    nlp = seen[0].nlp(np.asarray(per_leg.start["state"]),
+                      np.asarray(per_leg.start["parameters"]))
     assert type(nlp.stride_map) is PoincareMap and nlp.stride_map.steps == 2
     assert all(n.startswith("right.") for n in nlp.free)
     # each fit's one solve is that of its rounds: one iteration, the objective finite

@@ -10,10 +10,10 @@ import pytest
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.stride import (
-    StrideMap,
     find_stride_fixed_point,
     physical_parameter_names,
     physical_parameter_vector,
+    stride_map,
     stride_report,
     with_physical_parameters,
 )
@@ -30,7 +30,7 @@ def symmetric():
 
 def test_equal_legs_stride_fixed_point_is_two_steps(symmetric):
     pb, step = symmetric
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     assert smap.per_leg  # the per-leg build, with equal values on both legs
     stride = find_stride_fixed_point(pb, x0=step.state, tol=1e-11, smap=smap)
     assert stride.converged
@@ -53,7 +53,7 @@ def test_equal_legs_stride_fixed_point_is_two_steps(symmetric):
 def test_per_leg_build_is_the_baked_walker(symmetric):
     """The runtime-parameter walker computes the same step as the one with numbers baked in."""
     pb, step = symmetric
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     p1, _ = smap.step_parameters(smap.default_parameters())
     a = smap.evaluate_step(step.state, p1)
     b = PoincareMap(pb).evaluate(step.state)
@@ -72,7 +72,7 @@ def _asymmetric(pb, **right):
 def test_stride_jacobian_against_finite_differences(symmetric):
     pb, step = symmetric
     pb = _asymmetric(pb, k_ankle=5.15)
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     theta = smap.default_parameters()
     r = smap.evaluate(step.state, theta)
     names = list(smap.parameter_names)
@@ -100,14 +100,14 @@ def test_parameters_follow_the_physical_leg(symmetric):
     c_left, _ = pb.leg_values("left")
     c_right, _ = pb.leg_values("right")
     mirror = pb.replace(compliance=c_right, legs={"right": {"compliance": c_left}})
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     mid = smap.evaluate(fp.state, jacobian=False).steps[0].x_next
     fpm = find_stride_fixed_point(mirror, x0=mid, tol=1e-11)
     assert fpm.converged
     assert np.abs(fpm.state - mid).max() < 1e-9
     # an asymmetric gait: the step lengths differ, and swap with the legs
     rep = stride_report(smap, fp.state, curves=False)
-    repm = stride_report(StrideMap(mirror), fpm.state, curves=False)
+    repm = stride_report(stride_map(mirror), fpm.state, curves=False)
     assert abs(rep["step_length_asymmetry_pct"]) > 1e-3
     assert abs(rep["step_length_asymmetry_pct"] + repm["step_length_asymmetry_pct"]) < 1e-6
     assert abs(rep["legs"]["left"]["step_time_s"] - repm["legs"]["right"]["step_time_s"]) < 1e-9
@@ -116,7 +116,7 @@ def test_parameters_follow_the_physical_leg(symmetric):
 def test_section_step_length_matches_the_simulator(symmetric):
     pb, step = symmetric
     pb = _asymmetric(pb, c_knee_ext=1.21)
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     theta = smap.default_parameters()
     r = smap.evaluate(step.state, theta, jacobian=False)
     p1, p2 = smap.step_parameters(theta)
@@ -230,7 +230,7 @@ def test_stride_validity_reads_both_steps_margins(symmetric):
     from pdw_casadi.gait.fixed_point import validity_slacks
 
     pb, step = symmetric
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     stride = find_stride_fixed_point(pb, x0=step.state, tol=1e-11, smap=smap)
     step_slacks = validity_slacks(step.margins, pb)
     stride_slacks = validity_slacks(stride.margins, pb, smap.hs)
@@ -241,7 +241,7 @@ def test_stride_validity_reads_both_steps_margins(symmetric):
     assert step.valid and stride.valid
     weakest = min(v for k, v in step.margins.items() if ":min_N_" in k)
     strict = pb.replace(validity={**pb.validity, "min_normal_force": weakest + 1.0})
-    smap_s = StrideMap(strict)
+    smap_s = stride_map(strict)
     assert not find_fixed_point(strict, x0=step.state, tol=1e-11).valid
     bad = find_stride_fixed_point(strict, x0=step.state, tol=1e-11, smap=smap_s)
     assert bad.converged and not bad.valid and "min_N_" in bad.failure
@@ -282,7 +282,7 @@ def test_stride_timing_per_leg(symmetric):
     from pdw_casadi.gait.timing import fixed_point_timing
 
     pb, step = symmetric
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     same = stride_timing(smap, step.state)
     one = fixed_point_timing(pb, step.state, step.parameters)
     for t in same.values():
@@ -290,7 +290,7 @@ def test_stride_timing_per_leg(symmetric):
         assert np.allclose(t.double_support_pct, one.double_support_pct, atol=1e-9)
         assert abs(t.speed_m_s - one.speed_m_s) < 1e-9
     asym = _asymmetric(pb, c_knee_ext=1.21)
-    smap = StrideMap(asym)
+    smap = stride_map(asym)
     fp = find_stride_fixed_point(asym, x0=step.state, smap=smap)
     assert fp.converged
     rep = stride_report(smap, fp.state, curves=False)
@@ -312,7 +312,7 @@ def test_per_leg_ankle_walker_follows_each_leg():
     right-stance step the one at the left leg's (the values follow the physical leg)."""
     pb = load_problem("humanlike_6link_ankle_ds")  # all four extension elements on
     x = pb.state_vector()
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     assert smap.per_leg
     p1, _ = smap.step_parameters(smap.default_parameters())
     a = smap.evaluate_step(x, p1)
@@ -321,7 +321,7 @@ def test_per_leg_ankle_walker_follows_each_leg():
     assert np.abs(a.x_next - b.x_next).max() < 1e-10
     assert np.abs(a.dx - b.dx).max() < 1e-8
     right = {"c_ankle_load": 1.4}
-    r = StrideMap(_asymmetric(pb, **right)).evaluate(x, jacobian=False)
+    r = stride_map(_asymmetric(pb, **right)).evaluate(x, jacobian=False)
     one = PoincareMap(pb.replace(compliance=right)).evaluate(x, jacobian=False)
     assert np.abs(r.steps[0].x_next - one.x_next).max() < 1e-10
     two = PoincareMap(pb).evaluate(one.x_next, jacobian=False)

@@ -13,7 +13,7 @@ import pytest
 from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.fit.objective import curve_errors
 from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
-from pdw_casadi.gait.stride import StrideMap, stride_report
+from pdw_casadi.gait.stride import stride_map, stride_report
 from pdw_casadi.model.gait_data import SideCurves, load_gait_curves, load_side_curves
 from pdw_casadi.nlp.shooting import ShootingNLP
 from pdw_casadi.studies.prosthesis import atlas_problem
@@ -32,7 +32,7 @@ def fitted():
     pb = atlas_problem(FITTED)
     fp = find_fixed_point(pb, fallback=False)
     assert fp.converged
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     one = ShootingNLP(pb, fp.state, fp.parameters)
     stride = ShootingNLP.stride(pb, fp.state, smap.default_parameters())
     return pb, smap, fp, one, stride
@@ -92,21 +92,69 @@ def test_stride_objective_at_equal_sides_is_twice_the_step_objective(fitted):
 
 def test_stride_free_names_and_bounds(fitted):
     """--side frees one leg's compliance only, named as the stride's physical parameters;
-    the stride's stability bound and verdict are the per-step ones squared."""
-    from pdw_casadi.fit.stride_fit import StrideFitOptions, stride_free_names
+    the stride's stability bound is the per-step one squared."""
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.fit.stride_fit import stride_free_names
 
     pb, smap, fp, *_ = fitted
-    both = stride_free_names(pb, StrideFitOptions())
-    right = stride_free_names(pb, StrideFitOptions(side="right", free=("k_ankle", "k_knee"),
-                                                   free_slope=True))
+    both = stride_free_names(pb, FitOptions())
+    right = stride_free_names(pb, FitOptions(side="right", free=("k_ankle", "k_knee"),
+                                             free_slope=True))
     assert both == tuple(f"{s}.{k}" for s in ("left", "right") for k in pb.compliance_names)
     assert right == ("right.k_ankle", "right.k_knee", "slope")
     assert set(both) <= set(smap.parameter_names) and set(right) <= set(smap.parameter_names)
     with pytest.raises(ValueError, match="side must be"):
-        stride_free_names(pb, StrideFitOptions(side="middle"))
-    opts = StrideFitOptions(max_radius=0.91)
-    assert opts.stride_radius_bound == pytest.approx(0.9 ** 2)
-    assert opts.stride_max_radius == pytest.approx(0.91 ** 2)
+        stride_free_names(pb, FitOptions(side="middle"))
+    opts = FitOptions(max_radius=0.91)
+    assert opts.radius_bound(2) == pytest.approx(0.9 ** 2)
+    assert opts.radius_bound(1) == opts.max_radius - opts.radius_margin
+
+
+def _candidate(radius: float, steps: int, max_radius: float = 0.91, valid: bool = True,
+               deviation: float = 0.0):
+    """A checked gait of the ``steps``-step map whose spectral radius is ``radius`` (no
+    simulation: a stand-in fixed point with that radius)."""
+    from pdw_casadi.fit.result import Candidate
+    from pdw_casadi.gait.fixed_point import FixedPointResult
+
+    fp = FixedPointResult(
+        state=np.zeros(2), state_names=("q", "u"), parameters=np.zeros(1),
+        parameter_names=("k",), residual=0.0, iterations=1, converged=True,
+        jacobian=np.diag([radius, 0.0]), jacobian_p=np.zeros((2, 1)),
+        eigenvalues=np.array([radius, 0.0]), spectral_radius=radius, step_time_s=0.5 * steps,
+        step_length_m=0.6 * steps, margins={}, valid=valid, failure=None, method="newton",
+        wall_time_s=0.0)
+    if steps == 1:
+        scores = {"r2_knee": 0.9, "r2_hip": 0.7}
+    else:
+        scores = {"left": {"r2_knee": 0.9, "r2_hip": 0.7},
+                  "right": {"r2_knee": 0.8, "r2_hip": 0.6}}
+    return Candidate(-1, fp.state, fp.parameters, fp, scores, None, deviation, steps=steps,
+                     max_radius=max_radius)
+
+
+@pytest.mark.parametrize("max_radius", [0.91, 0.86, 0.5])
+def test_one_stability_rule_for_the_step_and_the_stride(max_radius):
+    """One verdict for one step and for the stride: a gait with per-step radius r on the
+    step map (rho = r) and on the stride (rho = r^2) is stable and good alike, for r just
+    below, at and just above ``max_radius`` (the per-step radius); invalid or re-simulated
+    off its NLP answer, neither is good; both rank by their mean R^2 (a stride's over both
+    legs)."""
+    from pdw_casadi.fit.options import FitOptions
+
+    for r, expected in ((max_radius - 1e-6, True), (max_radius, True),
+                        (max_radius + 1e-6, False), (1.0, False), (1.2, False)):
+        step, stride = _candidate(r, 1, max_radius), _candidate(r ** 2, 2, max_radius)
+        assert step.stable is stride.stable is expected, r
+        assert step.good is stride.good is expected, r
+        assert step.per_step_radius == r
+        assert stride.per_step_radius == pytest.approx(r, rel=1e-15)
+    for c in (_candidate(0.8, 1, valid=False), _candidate(0.64, 2, valid=False),
+              _candidate(0.8, 1, deviation=FitOptions.resim_tol),
+              _candidate(0.64, 2, deviation=FitOptions.resim_tol)):
+        assert c.stable and not c.valid and not c.good
+    assert _candidate(0.8, 1).mean_score(("knee", "hip")) == pytest.approx(0.8)
+    assert _candidate(0.64, 2).mean_score(("knee", "hip")) == pytest.approx(0.75)
 
 
 @pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 8 min on 2 shared cores

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pdw_casadi.fit import StabilityRow
-from pdw_casadi.gait.stride import StrideMap, find_stride_fixed_point
+from pdw_casadi.gait.stride import find_stride_fixed_point, stride_map
 from pdw_casadi.nlp.shooting import ShootingNLP
 from pdw_casadi.studies.prosthesis import atlas_problem, prosthetic_problem
 
@@ -26,7 +26,7 @@ def test_stride_nlp_at_equal_legs_is_the_one_step_nlp_twice(base):
     on the per-leg walker (other compiled functions), so this checks the per-leg parameters,
     the role permutation and the node layout."""
     one = ShootingNLP(base, base.state_vector(), base.parameter_vector())
-    smap = StrideMap(base)
+    smap = stride_map(base)
     stride = ShootingNLP.stride(base, base.state_vector(), smap.default_parameters())
     n1 = len(one.specs)
     assert [(s.phase, s.event, s.n_int, s.step) for s in stride.specs] == [
@@ -63,7 +63,7 @@ def asymmetric(base):
     """A walker whose right shank and foot are 0.01 % lighter, its stride fixed point and
     the stride NLP there (two compliance values free)."""
     pb = prosthetic_problem(base, 1e-4)
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     fp = find_stride_fixed_point(pb, x0=find_stride_fixed_point(base).state, tol=1e-10,
                                  smap=smap, fallback=False)
     assert fp.converged
@@ -76,7 +76,7 @@ def asymmetric(base):
 def test_stride_stability_row_is_the_stride_map_jacobian(asymmetric):
     """At the stride NLP's starting gait (the simulator's fixed point, feasible to 1e-6),
     the row's chain over both steps is the stride map's exact-AD Jacobian dS/dx
-    (StrideMap.evaluate) to 1e-5 relative, and its value is rho_32 of those eigenvalues."""
+    (stride_map(...).evaluate) to 1e-5 relative, and its value is rho_32 of those eigenvalues."""
     from pdw_casadi.fit import RADIUS_NORM
 
     pb, smap, fp, nlp = asymmetric
@@ -250,7 +250,7 @@ def test_a_steps_last_impact_enters_a_phase_of_the_next_step(base):
     stride map checks that phase's guard (the trailing toe force, N) with those, and the
     stride NLP's row at the next step's first state gives the same value; the current
     step's parameters would give another force."""
-    smap = StrideMap(base)
+    smap = stride_map(base)
     theta = np.array(smap.default_parameters(), float)
     theta[smap.parameter_names.index("right.k_ankle")] *= 1.02
     ps = smap.step_parameters(theta)
@@ -299,7 +299,7 @@ def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
 
     pb = load_problem(bundled_dir("data") / "designs" / f"{name}.toml")
     assert abs((1 - lighter_mass(pb)) - lighter) < 1e-3
-    smap = StrideMap(pb)
+    smap = stride_map(pb)
     x0 = pb.state_vector() + 1e-5
     fp = find_stride_fixed_point(pb, x0=x0, tol=1e-10, smap=smap, fallback=False)
     assert fp.converged and fp.iterations > 0 and fp.valid and fp.spectral_radius <= 0.81

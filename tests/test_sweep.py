@@ -215,7 +215,7 @@ def test_sweep_of_one_legs_value_runs_on_the_stride_map():
     swept over ``right.k_ankle`` down to the left leg's value, where the stride is two equal
     steps: the stride's spectral radius is the square of the step map's and its period twice
     the step time; every row is a stride fixed point and its margins carry the stance leg."""
-    from pdw_casadi.gait.stride import StrideMap
+    from pdw_casadi.gait.stride import stride_map
 
     pb = load_problem("humanlike_6link")
     step = find_fixed_point(pb, tol=1e-11)
@@ -234,7 +234,7 @@ def test_sweep_of_one_legs_value_runs_on_the_stride_map():
     assert abs(equal["spectral_radius"] - step.spectral_radius ** 2) < 1e-8
     assert abs(equal["step_time_s"] - 2 * step.step_time_s) < 1e-9
     stiffer = tab.loc[np.isclose(tab["right.k_ankle"], k + 0.05)].iloc[0]
-    smap = StrideMap(stiff)
+    smap = stride_map(stiff)
     x = np.array([stiffer[n] for n in smap.state_names])
     r = smap.evaluate(x, jacobian=False)
     assert np.abs(r.x_next - x).max() < 1e-10

@@ -21,11 +21,11 @@ from pdw_casadi.cli.contract import (
     open_interval,
     run,
 )
-from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.studies.cohort import BODIES, KINDS, CohortOptions
 
 DEFAULTS = CohortOptions()
-FIT_DEFAULTS = StrideFitOptions()
+FIT_DEFAULTS = FitOptions()
 
 
 def _dask_slots(address: str) -> int | None:

@@ -79,15 +79,14 @@ def max_iter_argument(parser, default: int) -> None:
 def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool = False,
                   title: str | None = None):
     """The fit's flags (pdw-fit, pdw-cohort), their defaults read from ``defaults`` (a
-    :class:`~pdw_casadi.fit.FitOptions` or :class:`~pdw_casadi.fit.StrideFitOptions`;
-    default: ``StrideFitOptions()``): starts, targets, stability, IPOPT, the per-leg fit's
-    ``--side`` and ``--stride-start`` in their own group; ``timing``: also ``--timing
-    [W]``; ``title``: the group of the fit's flags (None: the parser's own options).
-    :func:`fit_options` turns the parsed flags into the options. Returns the per-leg
-    group (for a command's further per-leg flags)."""
-    from pdw_casadi.fit.stride_fit import StrideFitOptions
+    :class:`~pdw_casadi.fit.FitOptions`; default: ``FitOptions()``): starts, targets,
+    stability, IPOPT, the per-leg fit's ``--side`` and ``--stride-start`` in their own
+    group; ``timing``: also ``--timing [W]``; ``title``: the group of the fit's flags
+    (None: the parser's own options). :func:`fit_options` turns the parsed flags into the
+    options. Returns the per-leg group (for a command's further per-leg flags)."""
+    from pdw_casadi.fit.options import FitOptions
 
-    d = defaults or StrideFitOptions()
+    d = defaults or FitOptions()
     lo, hi = d.slope_bounds
     top = parser
     parser = parser if title is None else parser.add_argument_group(title)
@@ -128,9 +127,9 @@ def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool =
         "fits each leg to its side on the stride")
     g.add_argument("--side", choices=("both", "left", "right"), default=None,
                    help=f"per-leg fit: whose compliance is free (default: "
-                        f"{getattr(d, 'side', 'both')})")
+                        f"{d.side})")
     g.add_argument("--stride-start", choices=("fit", "atlas"),
-                   default=getattr(d, "start", "fit"),
+                   default=d.start,
                    help="per-leg fit: start from the symmetric fit to the mean of both "
                         "sides, or from the atlas gait that fits that mean best (no extra "
                         "solve) (default: %(default)s)")
@@ -153,11 +152,10 @@ def _knee_floor(text: str) -> str | float:
 
 def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
     """The fit's settings of flags parsed by :func:`fit_arguments` (``--atlas none``: no
-    atlas): a :class:`~pdw_casadi.fit.StrideFitOptions` (``per_leg``: with ``--side`` and
-    ``--stride-start``) or a :class:`~pdw_casadi.fit.FitOptions`, with ``extra`` settings
-    of the caller's (e.g. ``verbose``)."""
+    atlas): a :class:`~pdw_casadi.fit.FitOptions` (``per_leg``: with ``--side`` and
+    ``--stride-start``; else the per-leg settings at their defaults), with ``extra``
+    settings of the caller's (e.g. ``verbose``)."""
     from pdw_casadi.fit.options import FitOptions
-    from pdw_casadi.fit.stride_fit import StrideFitOptions
 
     atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
     values = dict(hip_target=args.hip_target, free_slope=args.free_slope,
@@ -167,8 +165,7 @@ def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
                   timing_weight=getattr(args, "timing", FitOptions.timing_weight), **extra)
     if not per_leg:
         return FitOptions(**values)
-    return StrideFitOptions(**values, side=args.side or StrideFitOptions.side,
-                            start=args.stride_start)
+    return FitOptions(**values, side=args.side or FitOptions.side, start=args.stride_start)
 
 
 def positive_int(text: str) -> int:

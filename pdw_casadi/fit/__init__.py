@@ -7,7 +7,7 @@
   step, exact gradient) and its progress lines;
 - :mod:`.starts`: the gait atlas and the choice of starts;
 - :mod:`.atlas`: building a walker's gait atlas (``pdw-atlas``);
-- :mod:`.result`: solves, candidates, checks;
+- :mod:`.result`: solves, candidates (a periodic gait of one step or of a stride), checks;
 - :mod:`.rounds`: the NLP rounds of a start, on the step or on the stride;
 - :mod:`.core`: :func:`fit_gait` (per-side curves: the per-leg fit :func:`fit_sides`);
 - :mod:`.stride_objective`, :mod:`.stride_fit`: the per-leg fit's parts, each leg to its
@@ -32,11 +32,9 @@ from pdw_casadi.fit.result import (
            mean_score,
            reference_gait,
 )
-from pdw_casadi.fit.stride_fit import StrideFitOptions, StrideFitResult
 from pdw_casadi.nlp.stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
-           "RefitCorrector", "Solve", "StabilityRow", "StrideFitOptions", "StrideFitResult",
-           "check_targets", "evaluate_gait", "fit_gait", "fit_libraries", "fit_sides",
-           "fit_stride", "mean_score",
+           "RefitCorrector", "Solve", "StabilityRow", "check_targets", "evaluate_gait",
+           "fit_gait", "fit_libraries", "fit_sides", "fit_stride", "mean_score",
            "reference_gait", "smooth_radius"]

@@ -33,16 +33,10 @@ from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit.driver import FitSolver
 from pdw_casadi.fit.objective import check_targets
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.fit.result import Candidate, FitResult, evaluate_gait, mean_score
+from pdw_casadi.fit.result import Candidate, FitResult, evaluate_gait
 from pdw_casadi.fit.rounds import fit_rounds
 from pdw_casadi.fit.starts import Start, own_gait, select_starts
-from pdw_casadi.fit.stride_fit import (
-    StrideFit,
-    StrideFitOptions,
-    StrideFitResult,
-    check_stride_targets,
-    evaluate_stride,
-)
+from pdw_casadi.fit.stride_fit import SidesFit, check_stride_targets, evaluate_stride
 from pdw_casadi.gait.curves import fit_scores
 from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap, sensitivity_libraries
@@ -85,7 +79,7 @@ class StepFit:
     def check(self, nlp, out: dict) -> Candidate | None:
         u = nlp.unpack(out["w"])
         cand = evaluate_gait(self.problem, u["xs"], u["p"], self.human, self.sim,
-                             self.opts.resim_steps, self.opts.resim_tol)
+                             self.opts.resim_steps, self.opts.resim_tol, self.opts.max_radius)
         if cand is not None:
             cand.start = self.start
         return cand
@@ -100,10 +94,10 @@ class StepFit:
         return cand
 
     def accepts(self, cand: Candidate) -> bool:
-        return cand.good(self.opts)
+        return cand.good
 
     def rank(self, cand: Candidate) -> float:
-        return mean_score(cand, self.targets)
+        return cand.mean_score(self.targets)
 
     def gap(self, cand: Candidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in self.targets))
@@ -167,8 +161,8 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
                   floor=floor)
     rounds, solves, notes = fit_rounds(fit, fp0.state, fp0.parameters, opts, log=log,
                                        warm=start.warm)
-    good = [c for c in rounds if c.good(opts)]
-    best = max(good, key=lambda c: mean_score(c, targets)) if good else (
+    good = [c for c in rounds if c.good]
+    best = max(good, key=lambda c: c.mean_score(targets)) if good else (
         rounds[-1] if rounds else None)
     return best, solves, notes
 
@@ -203,10 +197,10 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
 
     Per-side curves (:class:`~pdw_casadi.model.gait_data.SideCurves`): the per-leg fit, the
     same rounds (:func:`~pdw_casadi.fit.rounds.fit_rounds`) on the stride, the two-step
-    map (:func:`fit_sides`; ``options`` a :class:`~pdw_casadi.fit.StrideFitOptions`).
+    map (:func:`fit_sides`; ``options`` with its ``side`` and ``start``).
     """
     if isinstance(human, SideCurves):
-        build_libraries(fit_libraries(problem, options or StrideFitOptions(), steps=2), log=log)
+        build_libraries(fit_libraries(problem, options or FitOptions(), steps=2), log=log)
         return fit_sides(problem, human, options, log=log)
     opts = options or FitOptions()
     check_targets(problem, human, opts)
@@ -229,13 +223,13 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
     candidates = [r[0] for r in results if r[0] is not None]
     solves = [x for r in results for x in r[1]]
     notes = [x for r in results for x in r[2]]
-    good = [c for c in candidates if c.good(opts)]
-    best = max(good, key=lambda c: mean_score(c, targets), default=None)
+    good = [c for c in candidates if c.good]
+    best = max(good, key=lambda c: c.mean_score(targets), default=None)
     return FitResult(problem, best, candidates, solves, opts, time.perf_counter() - t_start,
                      targets, notes)
 
 
-def symmetric_start(problem, sides: SideCurves, opts: StrideFitOptions, log=print):
+def symmetric_start(problem, sides: SideCurves, opts: FitOptions, log=print):
     """The per-leg fit's start on a walker with equal legs: (section state, step parameters,
     label, the start fit's solves, notes). ``opts.start`` "fit": the one-step fit to the
     mean of both sides (:func:`fit_gait`), "atlas" (or when that fit finds no stable valid
@@ -260,14 +254,17 @@ def symmetric_start(problem, sides: SideCurves, opts: StrideFitOptions, log=prin
     return fp.state, fp.parameters, start.label, [], notes
 
 
-def fit_sides(problem, sides: SideCurves, options: StrideFitOptions | None = None,
-              log=print) -> StrideFitResult:
+def fit_sides(problem, sides: SideCurves, options: FitOptions | None = None,
+              log=print) -> FitResult:
     """Fit each leg of ``problem``'s walker to its side of ``sides`` on the stride
     (:mod:`pdw_casadi.fit.stride_fit`): :func:`fit_rounds` on the two-step map
-    (:class:`~pdw_casadi.fit.stride_fit.StrideFit`). ``problem``: a symmetric walker (the
+    (:class:`~pdw_casadi.fit.stride_fit.SidesFit`). ``problem``: a symmetric walker (the
     start is :func:`symmetric_start`, repeated twice), or one whose legs differ (the start
-    is its own stride fixed point)."""
-    opts = options or StrideFitOptions()
+    is its own stride fixed point). The result's candidates are two-step candidates
+    (:class:`~pdw_casadi.fit.result.Candidate`, ``steps`` 2); its ``start`` is the symmetric
+    start (label, state, parameters, R^2 and curves per leg), its ``free`` the stride NLP's
+    free names."""
+    opts = options or FitOptions()
     check_stride_targets(problem, sides, opts)
     t_start = time.perf_counter()
     targets = opts.targets()
@@ -283,19 +280,19 @@ def fit_sides(problem, sides: SideCurves, options: StrideFitOptions | None = Non
         theta = physical_parameter_vector(problem.with_parameters(p))
     solves = list(solves)
     start = evaluate_stride(smap, (x, x), theta, sides, opts.resim_steps, opts.resim_tol,
-                            opts.stride_max_radius) if not problem.asymmetric else None
+                            opts.max_radius) if not problem.asymmetric else None
     start_info = {"label": label, "state": np.asarray(x, float).tolist(),
-                  "theta": np.asarray(theta, float).tolist(),
+                  "parameters": np.asarray(theta, float).tolist(),
                   "scores": None if start is None else start.scores,
                   "curves": None if start is None else start.report["curves"]}
-    fit = StrideFit(problem, sides, opts, label, log=log)
+    fit = SidesFit(problem, sides, opts, label, log=log)
     rounds, more, more_notes = fit_rounds(fit, x, theta, opts, log=log)
     solves += more
     notes = list(notes) + more_notes
     good = [c for c in rounds if c.good]
     best = max(good, key=lambda c: c.mean_score(targets)) if good else None
-    return StrideFitResult(problem, best, rounds, start_info, solves, opts,
-                           time.perf_counter() - t_start, targets, fit.free, notes)
+    return FitResult(problem, best, rounds, solves, opts, time.perf_counter() - t_start,
+                     targets, notes, start=start_info, free=fit.free)
 
 
 #: the per-leg fit's name: :func:`fit_gait` with per-side curves (:func:`fit_sides`)

@@ -97,7 +97,7 @@ class FitSolver:
         if knee_floor is not None and "knee" in self.E:
             # 1 - R^2_knee <= 1 - floor: the knee never traded for the hip below the floor
             floor_rows.append(ca.sumsqr(self.E["knee"]) / self.ss["knee"])
-            floor_ub.append(1.0 - knee_floor)
+            floor_ub.append(1.0 - knee_floor - opts.knee_floor_margin)
         self.n_w = nlp.w.shape[0]
         self.x = ca.vertcat(nlp.w, self.e)
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \

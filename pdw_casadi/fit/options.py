@@ -4,6 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from pdw_casadi.model.gait_data import SIDES
+
+#: the settings of the per-leg fit only (a one-step fit ignores them)
+PER_LEG_FIELDS = ("side", "start")
+
 
 @dataclass
 class FitOptions:
@@ -12,11 +17,13 @@ class FitOptions:
     Targets: ``hip_target`` "hip" (the paper's hip angle, thigh + slope) or "thigh" (thigh
     from the gravity vertical, like-for-like with the human thigh column).
 
-    Stability: ``max_radius`` is the largest accepted spectral radius of the simulator's
-    Poincare map (the verdict); the NLP bounds its stability row (``stability_bound``: by
-    default ||J^8||_F^(1/8) of its own step's Jacobian J, an upper bound of rho) by
-    ``max_radius - radius_margin``, so the verdict holds with ``radius_margin`` to spare for
-    the NLP's and the simulator's step sizes.
+    Stability: ``max_radius`` is the largest accepted spectral radius per step of the
+    simulator's Poincare map (the verdict; a fit on the stride, two steps, accepts a stride
+    radius up to ``max_radius``^2: :attr:`~pdw_casadi.fit.result.Candidate.stable`); the NLP
+    bounds its stability row (``stability_bound``: by default ||J^8||_F^(1/8) of its own
+    step's Jacobian J, an upper bound of rho) by ``max_radius - radius_margin``, on the
+    stride by that squared (:meth:`radius_bound`), so the verdict holds with
+    ``radius_margin`` to spare for the NLP's and the simulator's step sizes.
 
     Starts: the ``multistart`` gaits, of the atlas entries (stable gaits shipped with the
     package) and the problem's own, whose curves fit the user's best, the most stable first
@@ -29,6 +36,15 @@ class FitOptions:
     only when the objective's sample brackets moved (``consistency_tol``) or its
     re-simulation deviation is at least ``resim_tol`` (the NLP's RK4 grid, set from the
     start's phase durations, no longer matches the simulator's).
+
+    The per-leg fit (per-side curves, :func:`~pdw_casadi.fit.core.fit_sides`; the one-step
+    fit ignores these): ``side``, whose compliance is free, "both" (each leg its own),
+    "left" or "right" (the other leg keeps the start's); ``start``, "fit" (the symmetric
+    step fit to the mean of both sides first, with these settings, then repeated twice) or
+    "atlas" (the atlas or problem gait that fits that mean best, as the step fit picks it,
+    repeated twice; no extra solve). "fit" is the default: the meaningful comparison (what
+    per-leg compliance adds to the best symmetric fit), and the better answer where both
+    were measured (``docs/results/per-leg-fit.md``).
     """
 
     hip_target: str = "hip"
@@ -65,6 +81,10 @@ class FitOptions:
     #: compliance values free (a slope-only fit has nothing else to hold the knee with)
     #: (docs/results/fit.md)
     knee_floor: str | float | None = "reference"
+    #: the NLP holds knee R^2 this much above the floor: IPOPT holds a row to its
+    #: constraint tolerance, and the re-simulated R^2 differs from the NLP's samples by
+    #: about 1e-5; without it a fit on its floor ended 4e-5 below it (WBDS18_early)
+    knee_floor_margin: float = 1e-4
     multistart: int = 1
     #: starts whose curves fit the user's within this much mean R^2 of the best count as
     #: equally good; of those the most stable goes first (why: docs/results/fit-settings.md)
@@ -135,6 +155,23 @@ class FitOptions:
     verbose: bool = True  # one progress line per IPOPT iteration
     log_file: str | None = None  # the full IPOPT log (e.g. DIR/ipopt.log)
     ipopt: dict = field(default_factory=dict)  # extra IPOPT options (override the defaults)
+    #: the per-leg fit's: whose compliance is free ("both", "left", "right")
+    side: str = "both"
+    #: the per-leg fit's start: "fit" (the symmetric fit to the mean of both sides) or "atlas"
+    start: str = "fit"
 
     def targets(self) -> tuple[str, str]:
         return ("knee", self.hip_target)
+
+    def free_sides(self) -> tuple[str, ...]:
+        """The legs whose compliance the per-leg fit frees (``side``)."""
+        if self.side == "both":
+            return SIDES
+        if self.side not in SIDES:
+            raise ValueError(f"side must be 'both', 'left' or 'right', got {self.side!r}")
+        return (self.side,)
+
+    def radius_bound(self, steps: int = 1) -> float:
+        """The NLP's stability-row bound on the map of ``steps`` steps: the per-step bound
+        ``max_radius - radius_margin`` to the power ``steps``."""
+        return (self.max_radius - self.radius_margin) ** steps

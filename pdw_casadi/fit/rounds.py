@@ -7,7 +7,8 @@ re-simulated 1 - R^2 differ by more than ``consistency_tol`` or the answer's re-
 deviation is at least ``resim_tol`` (at most ``rounds`` solves).
 What depends on the map is a :class:`MapFit`: the one-step fit's
 (:class:`~pdw_casadi.fit.core.StepFit`) or the per-leg fit's on the stride
-(:class:`~pdw_casadi.fit.stride_fit.StrideFit`).
+(:class:`~pdw_casadi.fit.stride_fit.SidesFit`). Either checks its answers into a
+:class:`~pdw_casadi.fit.result.Candidate` of its ``steps``.
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 The per-leg fit (:func:`~pdw_casadi.fit.fit_gait` with per-side curves:
 :func:`~pdw_casadi.fit.core.fit_sides`, its rounds those of every fit,
-:func:`~pdw_casadi.fit.rounds.fit_rounds`, with :class:`StrideFit`) solves the stride
+:func:`~pdw_casadi.fit.rounds.fit_rounds`, with :class:`SidesFit`) solves the stride
 multiple-shooting NLP
 (:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`: step 0 with the left leg in stance,
 step 1 with the right) for a periodic stride and each leg's free compliance (``left.k_ankle``,
@@ -13,15 +13,15 @@ steps, so the per-step bound squared. It starts from the symmetric fit to the me
 sides (:func:`~pdw_casadi.fit.fit_gait`; with ``start="atlas"``, from the atlas gait that
 fits that mean best), repeated twice, and checks the answer on the stride map as
 the step fit does: ``resim_steps``-step re-simulation with the legs' parameters alternating
-(deviation < ``resim_tol``), the stride fixed point, its exact-AD spectral radius
-(<= ``max_radius``^2) and validity. R^2 is that of the re-simulated gait, per leg
-(:func:`pdw_casadi.gait.stride.stride_report`).
+(deviation < ``resim_tol``), the stride fixed point, its exact-AD spectral radius (per step
+<= ``max_radius``, so the stride's <= ``max_radius``^2) and validity. R^2 is that of the
+re-simulated gait, per leg (:func:`pdw_casadi.gait.stride.stride_report`). Its settings are
+those of every fit (:class:`~pdw_casadi.fit.FitOptions`, with ``side`` and ``start``), its
+answer a two-step :class:`~pdw_casadi.fit.result.Candidate` in a
+:class:`~pdw_casadi.fit.result.FitResult`.
 """
 
 from __future__ import annotations
-
-import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,130 +29,30 @@ from pdw_casadi.engine.errors import CurveError, PoincareError
 from pdw_casadi.fit.driver import FitSolver
 from pdw_casadi.fit.objective import check_targets
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.fit.result import Solve
+from pdw_casadi.fit.result import Candidate
 from pdw_casadi.fit.stride_objective import side_targets, stride_curve_errors
 from pdw_casadi.gait.curves import fit_scores
-from pdw_casadi.gait.fixed_point import FixedPointResult
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.stride import (
     find_stride_fixed_point,
     stride_report,
 )
 from pdw_casadi.model.gait_data import SIDES
-from pdw_casadi.nlp.driver import succeeded
 from pdw_casadi.nlp.shooting import ShootingNLP
 
 
-@dataclass
-class StrideFitOptions(FitOptions):
-    """Settings of the per-leg fit (:func:`~pdw_casadi.fit.core.fit_sides`): those of
-    :class:`~pdw_casadi.fit.FitOptions` (the symmetric start fit uses them as they are) and
-
-    ``side``: whose compliance is free, "both" (each leg its own), "left" or "right" (the
-    other leg keeps the start's); ``start``: "fit" (the symmetric step fit to the mean of
-    both sides first, then repeated twice) or "atlas" (the atlas or problem gait that fits
-    that mean best, as the step fit picks it, repeated twice; no extra solve). "fit" is the
-    default: the meaningful comparison (what per-leg compliance adds to the best symmetric
-    fit), and the better answer where both were measured (``docs/results/per-leg-fit.md``).
-    ``max_radius`` stays the per-step value: the stride's verdict is ``max_radius``^2, its
-    NLP bound (``max_radius`` - ``radius_margin``)^2.
-    """
-
-    side: str = "both"
-    start: str = "fit"
-
-    @property
-    def stride_max_radius(self) -> float:
-        return self.max_radius ** 2
-
-    @property
-    def stride_radius_bound(self) -> float:
-        return (self.max_radius - self.radius_margin) ** 2
-
-    def free_sides(self) -> tuple[str, ...]:
-        if self.side == "both":
-            return SIDES
-        if self.side not in SIDES:
-            raise ValueError(f"side must be 'both', 'left' or 'right', got {self.side!r}")
-        return (self.side,)
-
-
-@dataclass
-class StrideCandidate:
-    """A fitted stride with its checks: the stride fixed point (stability, validity), the
-    per-leg report (:func:`~pdw_casadi.gait.stride.stride_report`, with curves), R^2 per leg
-    (``scores[side]``), the re-simulation deviation (rad, rad/s) of the NLP's section states
-    over ``resim_steps`` steps, and the NLP objective (sum of 1 - R^2 over legs and curves)."""
-
-    state: np.ndarray
-    theta: np.ndarray
-    fixed_point: FixedPointResult
-    report: dict
-    scores: dict
-    resimulation_deviation: float
-    objective: float = math.nan
-    resim_tol: float = FitOptions.resim_tol
-    max_radius: float = FitOptions.max_radius ** 2
-    #: IPOPT's return status of the solve this stride came from (None: no solve)
-    solver_status: str | None = None
-    #: the IPOPT iteration whose iterate the simulator polished into this gait (None: the
-    #: solve's answer, or its best feasible iterate when it stopped short)
-    polished_from: int | None = None
-
-    @property
-    def certified(self) -> bool:
-        """True: IPOPT's converged answer (or no solve); False: the best feasible iterate of
-        a solve that stopped short, or an iterate polished on the simulator (checked the same
-        way, not shown to be the NLP's optimum)."""
-        if self.solver_status is None:
-            return True
-        return succeeded(self.solver_status) and self.polished_from is None
-
-    @property
-    def stable(self) -> bool:
-        return self.fixed_point.stable and self.fixed_point.spectral_radius <= self.max_radius
-
-    @property
-    def valid(self) -> bool:
-        return self.fixed_point.valid and self.resimulation_deviation < self.resim_tol
-
-    @property
-    def good(self) -> bool:
-        return self.stable and self.valid
-
-    def mean_score(self, targets) -> float:
-        """Mean R^2 over both legs and ``targets``."""
-        return float(np.mean([self.scores[s][f"r2_{t}"] for s in SIDES for t in targets]))
-
-
-@dataclass
-class StrideFitResult:
-    """The stride fit: its ``best`` stable valid candidate (None if none), every round's
-    candidate, the symmetric start (``start``: label, state, parameters, its R^2 per leg),
-    the IPOPT solves (the start fit's first) and the wall time (s)."""
-
-    problem: object
-    best: StrideCandidate | None
-    candidates: list[StrideCandidate]
-    start: dict
-    solves: list[Solve]
-    options: StrideFitOptions
-    wall_time_s: float
-    targets: tuple[str, ...]
-    free: tuple[str, ...]
-    notes: list[str] = field(default_factory=list)
-
-
-def evaluate_stride(smap: PoincareMap, xs_steps, theta, sides,
+def evaluate_stride(smap: PoincareMap, xs_steps, parameters, sides,
                     resim_steps: int = FitOptions.resim_steps,
                     resim_tol: float = FitOptions.resim_tol,
-                    max_radius: float = FitOptions.max_radius ** 2) -> StrideCandidate | None:
+                    max_radius: float = FitOptions.max_radius) -> Candidate | None:
     """Checks of a stride (``xs_steps``: the section state at the start of each of its two
-    steps; ``theta``: physical parameters): the re-simulation deviation over ``resim_steps``
-    steps with the legs' parameters alternating, the stride fixed point and its report, R^2
-    per leg against ``sides``. None when the simulator finds no stride fixed point there."""
+    steps; ``parameters``: the physical legs' parameters): the re-simulation deviation over
+    ``resim_steps`` steps with the legs' parameters alternating, the stride fixed point
+    (stable: per-step radius <= ``max_radius``) and its report, R^2 per leg against
+    ``sides``: a two-step :class:`~pdw_casadi.fit.result.Candidate`. None when the simulator
+    finds no stride fixed point there."""
     x = np.asarray(xs_steps[0], float)
-    theta = np.asarray(theta, float)
+    theta = np.asarray(parameters, float)
     dev = smap.resimulation_deviation(xs_steps, theta, resim_steps)
     fp = find_stride_fixed_point(smap.problem, x0=x, theta=theta, max_iter=15,
                                  fallback=False, smap=smap)
@@ -163,11 +63,11 @@ def evaluate_stride(smap: PoincareMap, xs_steps, theta, sides,
     except PoincareError:
         return None
     scores = {s: fit_scores(rep["curves"][s], sides.side(s)) for s in SIDES}
-    return StrideCandidate(fp.state, fp.parameters, fp, rep, scores, dev,
-                           resim_tol=resim_tol, max_radius=max_radius)
+    return Candidate(-1, fp.state, fp.parameters, fp, scores, rep["curves"], dev,
+                     resim_tol=resim_tol, steps=2, max_radius=max_radius, report=rep)
 
 
-def check_stride_targets(problem, sides, opts: StrideFitOptions) -> None:
+def check_stride_targets(problem, sides, opts: FitOptions) -> None:
     """Raise :class:`CurveError` (or ValueError for bad options) before any work."""
     if opts.timing_weight > 0:
         raise CurveError("the timing target is a one-step fit's (a stride fit has none)")
@@ -178,7 +78,7 @@ def check_stride_targets(problem, sides, opts: StrideFitOptions) -> None:
         check_targets(problem, sides.side(s), opts)
 
 
-def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
+def stride_free_names(problem, opts: FitOptions) -> tuple[str, ...]:
     """The stride NLP's unknown parameters: each free side's compliance (``opts.free``, by
     default all of the problem's) as ``<side>.<name>``, and ``slope`` with ``free_slope``."""
     base = tuple(opts.free or problem.compliance_names)
@@ -186,17 +86,18 @@ def stride_free_names(problem, opts: StrideFitOptions) -> tuple[str, ...]:
         ("slope",) if opts.free_slope else ())
 
 
-class StrideFit:
+class SidesFit:
     """The per-leg fit's part of :func:`~pdw_casadi.fit.rounds.fit_rounds` on the stride:
     the stride's shooting NLP (:meth:`~pdw_casadi.nlp.shooting.ShootingNLP.stride`) with the
     free names of :func:`stride_free_names`, each leg's curve rows against its side
     (:func:`~pdw_casadi.fit.stride_objective.stride_curve_errors`), the stability row
-    bounded by the per-step bound squared, the checks of :func:`evaluate_stride`."""
+    bounded by the per-step bound squared (:meth:`FitOptions.radius_bound`), the checks of
+    :func:`evaluate_stride`."""
 
     steps = 2
     start = -1
 
-    def __init__(self, problem, sides, opts: StrideFitOptions, label: str, log=print):
+    def __init__(self, problem, sides, opts: FitOptions, label: str, log=print):
         self.problem, self.sides, self.opts, self.label, self.log = (problem, sides, opts,
                                                                       label, log)
         self.targets = opts.targets()
@@ -211,36 +112,36 @@ class StrideFit:
     def solver(self, nlp) -> FitSolver:
         errs = stride_curve_errors(nlp, self.sides, self.targets)
         return FitSolver(nlp, None, self.opts, log=self.log, errors=errs,
-                         radius_bound=self.opts.stride_radius_bound)
+                         radius_bound=self.opts.radius_bound(self.steps))
 
-    def check(self, nlp, out: dict) -> StrideCandidate | None:
+    def check(self, nlp, out: dict) -> Candidate | None:
         u = nlp.unpack(out["w"])
         opts = self.opts
         return evaluate_stride(nlp.stride_map, u["xs_steps"], u["p"], self.sides,
-                               opts.resim_steps, opts.resim_tol, opts.stride_max_radius)
+                               opts.resim_steps, opts.resim_tol, opts.max_radius)
 
-    def polish(self, nlp, w) -> StrideCandidate | None:
+    def polish(self, nlp, w) -> Candidate | None:
         cand = self.check(nlp, {"w": w})
         if cand is not None:
             # the gait is the simulator's stride fixed point, not the iterate: re-simulate it
             cand.resimulation_deviation = nlp.stride_map.resimulation_deviation(
-                [cand.state], cand.theta, self.opts.resim_steps)
+                [cand.state], cand.parameters, self.opts.resim_steps)
             cand.objective = sum(1 - cand.scores[k.split(".")[0]][f"r2_{k.split('.')[1]}"]
                                  for k in self.keys)
         return cand
 
-    def accepts(self, cand: StrideCandidate) -> bool:
+    def accepts(self, cand: Candidate) -> bool:
         return cand.good
 
-    def rank(self, cand: StrideCandidate) -> float:
+    def rank(self, cand: Candidate) -> float:
         return cand.mean_score(self.opts.targets())
 
-    def gap(self, cand: StrideCandidate) -> float:
+    def gap(self, cand: Candidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][
             f"r2_{k.split('.')[1]}"] for k in self.keys))
 
-    def restart(self, cand: StrideCandidate):
-        return cand.state, cand.theta
+    def restart(self, cand: Candidate):
+        return cand.state, cand.parameters
 
     def describe(self, nlp, rnd: int) -> str:
         return (f"stride round {rnd} from {self.label}: {len(nlp.specs)} segments, "
@@ -256,5 +157,4 @@ class StrideFit:
         return f"stride round {rnd}"
 
 
-__all__ = ["StrideCandidate", "StrideFit", "StrideFitOptions", "StrideFitResult",
-           "check_stride_targets", "evaluate_stride", "stride_free_names"]
+__all__ = ["SidesFit", "check_stride_targets", "evaluate_stride", "stride_free_names"]

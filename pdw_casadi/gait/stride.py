@@ -53,10 +53,6 @@ def period_steps(problem) -> int:
     return 2 if problem.asymmetric else 1
 
 
-#: the stride map's former class name: the stride is the two-step :class:`PoincareMap`
-StrideMap = stride_map
-
-
 def find_stride_fixed_point(problem, x0=None, theta=None, tol: float = FIXED_POINT_TOL,
                             max_iter: int = 30, fallback: bool = True,
                             smap: PoincareMap | None = None):

@@ -19,7 +19,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from pdw_casadi.engine.jsonio import write_json
-from pdw_casadi.fit.stride_fit import StrideCandidate, StrideFitResult
+from pdw_casadi.fit.result import Candidate, FitResult
 from pdw_casadi.model.gait_data import CYCLE_POINTS, SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
 from pdw_casadi.report.fit_report import uncertified_note
@@ -55,7 +55,7 @@ def plot_stride_fit(sides, models: dict, path, scores: dict | None = None) -> Fi
     return fig
 
 
-def _table(res: StrideFitResult, cand: StrideCandidate | None, comp: dict | None,
+def _table(res: FitResult, cand: Candidate | None, comp: dict | None,
            start_comp: dict, ok: bool) -> str:
     lines = ["| gait | leg | knee R^2 | hip R^2 | thigh R^2 |", "|---|---|---|---|---|"]
     rows = [("symmetric start: " + res.start["label"], res.start["scores"])]
@@ -84,7 +84,7 @@ def _table(res: StrideFitResult, cand: StrideCandidate | None, comp: dict | None
         f"{legs['right']['step_time_s']:.4f} |\n"
         f"| step-length asymmetry (%) | {rep['step_length_asymmetry_pct']:+.3f} |\n"
         f"| step-time asymmetry (%) | {rep['step_time_asymmetry_pct']:+.3f} |\n"
-        f"| stride spectral radius (<= {res.options.stride_max_radius:.4f}) | "
+        f"| stride spectral radius (<= {res.options.max_radius ** 2:.4f}) | "
         f"{fp.spectral_radius:.4f} |\n"
         f"| per-step equivalent (its square root) | {np.sqrt(fp.spectral_radius):.4f} |\n"
         f"| valid | {'yes' if cand.valid else 'no'} |\n"
@@ -127,7 +127,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
         "fit": "stride", "side": opts.side, "free": list(res.free),
         "start": {"label": res.start["label"], "scores": res.start["scores"],
                   "compliance": start_comp},
-        "max_radius": opts.max_radius, "stride_max_radius": opts.stride_max_radius,
+        "max_radius": opts.max_radius, "stride_max_radius": opts.max_radius ** 2,
         "stable": False, "valid": False, "accepted": ok,
         "solver": {"solves": [s.to_dict() for s in res.solves],
                    "status": res.solves[-1].status if res.solves else None,

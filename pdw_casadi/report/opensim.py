@@ -671,9 +671,9 @@ def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
     from pdw_casadi.gait.simulate import Simulator
 
     if problem.asymmetric:
-        from pdw_casadi.gait.stride import StrideMap
+        from pdw_casadi.gait.stride import stride_map
 
-        smap = StrideMap(problem)
+        smap = stride_map(problem)
         theta = smap.default_parameters() if parameters is None else parameters
         sim, p_steps = Simulator(smap.problem, smap.hs), list(smap.step_parameters(theta))
     else:

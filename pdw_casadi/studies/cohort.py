@@ -66,9 +66,9 @@ from pdw_casadi._version import __version__
 from pdw_casadi.engine.errors import GaitDataError, ProblemError, UsageError
 from pdw_casadi.engine.jsonio import jsonable
 from pdw_casadi.engine.parallel import map_tasks
-from pdw_casadi.fit import FitOptions, fit_gait, mean_score
+from pdw_casadi.fit import FitOptions, fit_gait
 from pdw_casadi.fit.core import fit_stride
-from pdw_casadi.fit.stride_fit import StrideFitOptions
+from pdw_casadi.fit.options import PER_LEG_FIELDS
 from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
@@ -119,7 +119,7 @@ class CohortOptions:
     problem: str = DEFAULT_PROBLEM
     kind: str = "auto"
     body: str = "own"
-    fit: StrideFitOptions = field(default_factory=lambda: StrideFitOptions(verbose=False))
+    fit: FitOptions = field(default_factory=lambda: FitOptions(verbose=False))
     body_max_radius: float = BODY_MAX_RADIUS
 
     def __post_init__(self) -> None:
@@ -378,7 +378,7 @@ class FitTask:
 
     entry: StudyEntry
     problem: Problem
-    options: StrideFitOptions
+    options: FitOptions
     body: str
     fingerprint: str
 
@@ -392,12 +392,14 @@ def _file_digest(path: str) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-#: the settings of a symmetric fit (those of :class:`~pdw_casadi.fit.FitOptions`)
-FIT_FIELDS = tuple(f.name for f in dataclasses.fields(FitOptions))
+#: the settings of a symmetric fit (those of :class:`~pdw_casadi.fit.FitOptions` but the
+#: per-leg fit's ``side`` and ``start``)
+FIT_FIELDS = tuple(f.name for f in dataclasses.fields(FitOptions)
+                   if f.name not in PER_LEG_FIELDS)
 
 
 def symmetric_options(opts: FitOptions) -> FitOptions:
-    """The :class:`~pdw_casadi.fit.FitOptions` part of ``opts`` (a symmetric fit's)."""
+    """The symmetric fit's part of ``opts`` (the per-leg fields at their defaults)."""
     return FitOptions(**{k: getattr(opts, k) for k in FIT_FIELDS})
 
 
@@ -503,7 +505,7 @@ def _fit_outcome(res, score) -> tuple:
 
 def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
     res = fit_gait(problem, human, opts, log=lambda m: None)
-    cand, accepted, row = _fit_outcome(res, lambda c: mean_score(c, res.targets))
+    cand, accepted, row = _fit_outcome(res, lambda c: c.mean_score(res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "every start failed")
         return row, None
@@ -513,7 +515,7 @@ def _fit_rows_symmetric(problem: Problem, human: GaitCurves, opts: FitOptions):
     row.update({compliance_column(k): v for k, v in comp.items()})
     row.update(slope_rad=slope, spectral_radius=fp.spectral_radius,
                stride_spectral_radius=fp.spectral_radius ** 2,
-               stable=bool(cand.stable and fp.spectral_radius <= opts.max_radius),
+               stable=bool(cand.stable),
                valid=bool(cand.valid), certified=bool(cand.certified),
                resimulation_deviation=cand.resimulation_deviation,
                step_time_s=fp.step_time_s, step_length_m=fp.step_length_m,
@@ -541,7 +543,7 @@ def _rejection(row: dict, opts: FitOptions, failure) -> str:
     return "; ".join(why) or "not accepted"
 
 
-def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions):
+def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: FitOptions):
     res = fit_stride(problem, sides, opts, log=lambda m: None)
     cand, accepted, row = _fit_outcome(res, lambda c: c.mean_score(res.targets))
     if cand is None:
@@ -556,9 +558,9 @@ def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: StrideFitOptions)
         row[f"r2_{t}"] = float(np.mean(vals)) if None not in vals else None
     for s in SIDES:
         for k in problem.compliance_names:
-            row[compliance_column(k, s)] = float(cand.theta[names.index(f"{s}.{k}")])
+            row[compliance_column(k, s)] = float(cand.parameters[names.index(f"{s}.{k}")])
     legs = rep["legs"]
-    row.update(slope_rad=float(cand.theta[names.index("slope")]),
+    row.update(slope_rad=float(cand.parameters[names.index("slope")]),
                spectral_radius=math.sqrt(fp.spectral_radius),
                stride_spectral_radius=fp.spectral_radius,
                stable=bool(cand.stable), valid=bool(cand.valid), certified=bool(cand.certified),

@@ -35,16 +35,10 @@ from pdw_casadi.fit import (
     check_targets,
     fit_gait,
     fit_libraries,
-    mean_score,
     reference_gait,
 )
 from pdw_casadi.fit.core import fit_stride
-from pdw_casadi.fit.stride_fit import (
-    StrideCandidate,
-    StrideFitOptions,
-    StrideFitResult,
-    check_stride_targets,
-)
+from pdw_casadi.fit.stride_fit import check_stride_targets
 from pdw_casadi.gait.poincare import fixed_point_libraries
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.stride import stride_map
@@ -99,12 +93,13 @@ class FitSidesRun:
 
     problem: Problem
     sides: SideCurves
-    options: StrideFitOptions
+    options: FitOptions
     #: the stride fit itself (its candidates, the symmetric start, the IPOPT solves)
-    result: StrideFitResult
-    #: the reported candidate: the best stable valid one, else the best at all (None: none)
-    candidate: StrideCandidate | None
-    #: the candidate is the fit's best (stable, valid)
+    result: FitResult
+    #: the reported two-step candidate: the best stable valid one, else the best at all
+    #: (None: none)
+    candidate: Candidate | None
+    #: the candidate is the fit's best (stable with per-step rho <= max_radius, valid)
     accepted: bool
     #: each leg's compliance {side: {name: value}} at the symmetric start
     start_compliance: dict
@@ -116,23 +111,14 @@ class FitSidesRun:
     system: HybridSystem
 
 
-def leg_compliance(problem, theta) -> dict:
-    """Each leg's compliance {side: {name: value}} from physical parameters ``theta``."""
+def leg_compliance(problem, parameters) -> dict:
+    """Each leg's compliance {side: {name: value}} from the physical legs' ``parameters``."""
     names = list(stride_map(problem).parameter_names)
-    return {s: {k: float(theta[names.index(f"{s}.{k}")]) for k in problem.compliance_names}
-            for s in SIDES}
+    return {s: {k: float(parameters[names.index(f"{s}.{k}")])
+                for k in problem.compliance_names} for s in SIDES}
 
 
 def _pick(res: FitResult) -> tuple[Candidate | None, bool]:
-    """The best stable valid candidate, else the best candidate at all (flagged)."""
-    if res.best is not None:
-        return res.best, True
-    if not res.candidates:
-        return None, False
-    return max(res.candidates, key=lambda c: mean_score(c, res.targets)), False
-
-
-def _pick_stride(res: StrideFitResult) -> tuple[StrideCandidate | None, bool]:
     """The best stable valid candidate, else the best candidate at all (flagged)."""
     if res.best is not None:
         return res.best, True
@@ -150,7 +136,7 @@ def run_fit(problem, human, opts: FitOptions | None = None, workers: int = 1, lo
     multistart fit (``workers`` processes or a Dask ``scheduler``), the chosen candidate's
     timing and two steps of its limit cycle: a :class:`FitRun`. Per-side curves
     (:class:`~pdw_casadi.model.gait_data.SideCurves`): the per-leg fit on the stride
-    (``opts`` a :class:`~pdw_casadi.fit.StrideFitOptions`): a :class:`FitSidesRun`.
+    (``opts`` with its ``side`` and ``start``): a :class:`FitSidesRun`.
 
     The curves are checked against the targets first (:func:`~pdw_casadi.fit.check_targets`,
     per side :func:`~pdw_casadi.fit.stride_fit.check_stride_targets`): bad input raises
@@ -158,7 +144,7 @@ def run_fit(problem, human, opts: FitOptions | None = None, workers: int = 1, lo
     else (a command creates its output folder there, once its input is known good).
     """
     if isinstance(human, SideCurves):
-        return _run_sides(problem, human, opts or StrideFitOptions(), log, before_work)
+        return _run_sides(problem, human, opts or FitOptions(), log, before_work)
     opts = opts or FitOptions()
     check_targets(problem, human, opts)  # before the reference solves
     if before_work is not None:
@@ -202,20 +188,20 @@ def run_fit(problem, human, opts: FitOptions | None = None, workers: int = 1, lo
                   times=watch)
 
 
-def _run_sides(problem, sides: SideCurves, opts: StrideFitOptions, log,
+def _run_sides(problem, sides: SideCurves, opts: FitOptions, log,
                before_work: Callable[[], object] | None) -> FitSidesRun:
     """The per-leg fit of :func:`run_fit`."""
     check_stride_targets(problem, sides, opts)
     if before_work is not None:
         before_work()
     res = fit_stride(problem, sides, opts, log=log)
-    cand, ok = _pick_stride(res)
-    start_comp = leg_compliance(problem, np.asarray(res.start["theta"]))
+    cand, ok = _pick(res)
+    start_comp = leg_compliance(problem, np.asarray(res.start["parameters"]))
     comp = slope = None
     if cand is not None:
-        comp = leg_compliance(problem, cand.theta)
+        comp = leg_compliance(problem, cand.parameters)
         names = list(stride_map(problem).parameter_names)
-        slope = float(cand.theta[names.index("slope")])
+        slope = float(cand.parameters[names.index("slope")])
     return FitSidesRun(problem=problem, sides=sides, options=opts, result=res,
                        candidate=cand, accepted=ok, start_compliance=start_comp,
                        compliance=comp, slope=slope, system=stride_map(problem).hs)

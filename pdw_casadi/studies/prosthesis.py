@@ -298,16 +298,17 @@ class DesignSolve:
     step_length_asymmetry_pct: float
     step_time_asymmetry_pct: float
     valid: bool | None
-    #: what binds at the answer (:meth:`StrideDesignSolver.binding`, the 20 largest)
+    #: what binds at the answer (:meth:`ProsthesisDesignSolver.binding`, the 20 largest)
     binding: list = field(default_factory=list)
     #: the homotopy took this answer as its next point
     accepted: bool = False
 
 
-class StrideDesignSolver:
-    """IPOPT on a stride :class:`~pdw_casadi.nlp.shooting.ShootingNLP` whose free parameters are
-    the prosthetic leg's compliance (``free``: names like ``right.k_ankle``), with the
-    symmetry rows, the stability row and the least-change objective (module docstring).
+class ProsthesisDesignSolver:
+    """The design NLP of :func:`design_prosthesis_nlp`: IPOPT on a stride
+    :class:`~pdw_casadi.nlp.shooting.ShootingNLP` whose free parameters are the prosthetic
+    leg's compliance (``free``: names like ``right.k_ankle``), with the symmetry rows, the
+    stability row and the least-change objective (module docstring).
 
     ``pinned`` (name -> value): NLP parameters held at a value other than the one the NLP
     was built at (its unknown with equal bounds): a homotopy step builds the NLP at the
@@ -440,7 +441,7 @@ def sound_problem(problem: Problem, side: str = "right") -> tuple[Problem, float
     return problem.replace(legs={}, compliance=comp, anthropometry=anthro), lighter
 
 
-def _log_diagnosis(solver: StrideDesignSolver, out: dict, log) -> None:
+def _log_diagnosis(solver: ProsthesisDesignSolver, out: dict, log) -> None:
     """What binds at a solve's answer and how IPOPT got there (one line each)."""
     pr, du = out["inf_pr"], out["inf_du"]
     if pr:
@@ -512,7 +513,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                                  free=(*keys, *adapt, *dist, *body, *shared),
                                  sample_stride=opts.sample_stride, headroom_s=opts.headroom_s)
         pinned = {k: float(theta_t[names.index(k)]) for k in body}
-        solver = StrideDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
+        solver = ProsthesisDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
                                     log=log, bounds=dist_bounds)
         out = solver.solve(nlp.w0)
         if opts.diagnose:
