@@ -241,3 +241,21 @@ def test_importing_the_package_loads_no_numerics():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "['pdw_casadi._version']", out.stdout
+
+
+#: modules that solve or simulate: the report layer renders results and calls none of them
+SOLVERS = ("pdw_casadi.fit.core", "pdw_casadi.fit.rounds", "pdw_casadi.fit.driver",
+           "pdw_casadi.gait.simulate", "pdw_casadi.gait.fixed_point", "pdw_casadi.gait.poincare",
+           "pdw_casadi.engine.compile", "pdw_casadi.nlp", "pdw_casadi.studies.fit_run")
+
+
+def test_the_fit_reports_only_render():
+    """The fit's report modules import no solver, simulator or compiler, at module level or
+    in a function: the fit workflow (studies.fit_run) computes, the report renders its
+    result (a solver imported by a report would put work back in the report layer)."""
+    top, nested = import_graph(PACKAGE)
+    for module in ("pdw_casadi.report.fit_report", "pdw_casadi.report.fit_stride_report"):
+        reached = top.get(module, set()) | nested.get(module, set())
+        bad = sorted(m for m in reached if any(m == s or m.startswith(s + ".")
+                                                for s in SOLVERS))
+        assert not bad, f"{module} imports {bad}"

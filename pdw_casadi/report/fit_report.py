@@ -7,6 +7,7 @@ module renders its :class:`~pdw_casadi.studies.fit_run.FitRun` into the report f
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -16,7 +17,9 @@ from pdw_casadi.gait.timing import timing_table
 from pdw_casadi.model.gait_data import CYCLE_POINTS
 from pdw_casadi.model.units import summary_units
 from pdw_casadi.report.plots import plot_fit, plot_limit_cycle
-from pdw_casadi.studies.fit_run import FitRun
+
+if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
+    from pdw_casadi.studies.fit_run import FitRun
 
 
 def _scores(d: dict) -> dict:

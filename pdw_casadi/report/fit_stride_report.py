@@ -13,6 +13,7 @@ against its side's human curve (+/- SD where the file has one). The fit is run b
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -24,7 +25,9 @@ from pdw_casadi.model.gait_data import CYCLE_POINTS, SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
 from pdw_casadi.report.fit_report import uncertified_note
 from pdw_casadi.report.plots import plot_fit
-from pdw_casadi.studies.fit_run import FitSidesRun
+
+if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
+    from pdw_casadi.studies.fit_run import FitSidesRun
 
 JOINTS = ("knee", "hip", "thigh")
 
