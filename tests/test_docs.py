@@ -217,3 +217,27 @@ def test_docs_pages_named_in_the_code_exist():
             if not (ROOT / ref).is_file():
                 bad.append(f"{path.relative_to(ROOT)}: {ref}")
     assert not bad, bad
+
+
+def test_the_architecture_page_lists_every_module_and_command():
+    """docs/architecture.md's table names exactly the modules (and sub-packages) of each
+    layer, and the page names every console script of pyproject.toml."""
+    import re
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    page = (root / "docs" / "architecture.md").read_text()
+    package = root / "pdw_casadi"
+    rows = re.findall(r"^\| \[(\w+)\]\(api/\w+\.md\) \| ([^|]+) \|", page, flags=re.M)
+    assert {layer for layer, _ in rows} == {p.name for p in package.iterdir()
+                                           if (p / "__init__.py").is_file()}
+    for layer, cell in rows:
+        listed = {name.rstrip("/") for name in re.findall(r"`([\w/]+)`", cell)}
+        actual = {p.stem for p in (package / layer).iterdir()
+                  if (p.suffix == ".py" and not p.stem.startswith("__"))
+                  or (p.is_dir() and (p / "__init__.py").is_file())}
+        assert listed == actual, f"{layer}: page {sorted(listed - actual)}, package " \
+                                 f"{sorted(actual - listed)}"
+    scripts = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]
+    missing = [s for s in scripts if s not in page]
+    assert not missing, f"the architecture page does not name {missing}"
