@@ -341,3 +341,20 @@ def test_a_warm_start_from_a_stored_solution_stays_at_it(problem):
     assert np.max(np.abs(out["w"] - cold["w"])) <= 1e-4
     short = WarmStart(warm.w[:-1], warm.lam_w[:-1], warm.lam_shooting, warm.lam_row)
     assert again.warm_point(short) is None
+
+
+def test_the_summary_status_is_the_status_of_the_solve_the_gait_came_from():
+    """summary.json's solver.status names the solve the reported gait came from: a later
+    round at its iteration limit does not relabel an earlier converged answer; with no gait
+    it is the last solve's."""
+    from types import SimpleNamespace
+
+    from pdw_casadi.fit.result import Solve
+    from pdw_casadi.report.fit_report import answer_status
+
+    solves = [Solve(0, 0, "Solve_Succeeded", 20, 5.0, 0.3),
+              Solve(0, 1, "Maximum_Iterations_Exceeded", 300, 90.0, 0.3)]
+    assert answer_status(SimpleNamespace(solver_status="Solve_Succeeded"), solves) == \
+        "Solve_Succeeded"
+    assert answer_status(None, solves) == "Maximum_Iterations_Exceeded"
+    assert answer_status(None, []) is None

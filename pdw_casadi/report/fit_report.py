@@ -26,6 +26,15 @@ def _scores(d: dict) -> dict:
     return {k: d[k] for k in ("r2_knee", "r2_hip", "r2_thigh") if k in d}
 
 
+def answer_status(cand, solves) -> str | None:
+    """IPOPT's status of the solve the reported gait came from (the last solve's when there
+    is no gait): a later round that stopped short does not relabel an earlier round's
+    converged answer, nor a failed first round a converged warm restart."""
+    if cand is not None and cand.solver_status:
+        return cand.solver_status
+    return solves[-1].status if solves else None
+
+
 def uncertified_note(cand) -> str:
     """The headline's plain word on an answer that IPOPT did not certify ("" otherwise)."""
     if cand.certified:
@@ -100,7 +109,7 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
                 "stable": comparison["stable"], "problem": comparison_name}}
     summary["comparison"] = comp
     solver = {"solves": [s.to_dict() for s in res.solves],
-              "status": res.solves[-1].status if res.solves else None,
+              "status": answer_status(cand, res.solves),
               "iterations": int(sum(s.iterations for s in res.solves)),
               "wall_time_s": res.wall_time_s, "starts": res.starts_frame().to_dict("records"),
               "notes": res.notes}

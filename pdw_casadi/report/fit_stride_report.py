@@ -23,7 +23,7 @@ from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.fit.result import Candidate, FitResult
 from pdw_casadi.model.gait_data import CYCLE_POINTS, SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
-from pdw_casadi.report.fit_report import uncertified_note
+from pdw_casadi.report.fit_report import answer_status, uncertified_note
 from pdw_casadi.report.plots import plot_fit
 
 if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
@@ -133,7 +133,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
         "max_radius": opts.max_radius, "stride_max_radius": opts.max_radius ** 2,
         "stable": False, "valid": False, "accepted": ok,
         "solver": {"solves": [s.to_dict() for s in res.solves],
-                   "status": res.solves[-1].status if res.solves else None,
+                   "status": answer_status(cand, res.solves),
                    "iterations": int(sum(s.iterations for s in res.solves)),
                    "wall_time_s": res.wall_time_s, "notes": res.notes}}
     comp = run.compliance
