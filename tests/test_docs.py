@@ -241,3 +241,21 @@ def test_the_architecture_page_lists_every_module_and_command():
     scripts = tomllib.loads((root / "pyproject.toml").read_text())["project"]["scripts"]
     missing = [s for s in scripts if s not in page]
     assert not missing, f"the architecture page does not name {missing}"
+
+
+def test_every_list_on_the_site_starts_after_a_blank_line():
+    """Python-Markdown renders a list that directly follows a paragraph line as run-on text
+    with literal "- " (commands/sweep.md and the conventions of commands/outputs.md did):
+    every list item that follows text has a blank line before its list."""
+    bad = []
+    for page in sorted((ROOT / "docs").rglob("*.md")):
+        fence = False
+        prev = ""
+        for n, line in enumerate(page.read_text().split("\n"), 1):
+            if line.startswith("```"):
+                fence = not fence
+            if not fence and line.startswith("- ") and prev.strip() and not (
+                    prev.startswith(("- ", "  ", "|", "#", "<!--"))):
+                bad.append(f"{page.relative_to(ROOT)}:{n}")
+            prev = line
+    assert not bad, f"a list right after a paragraph line: {bad}"
