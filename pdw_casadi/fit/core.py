@@ -93,9 +93,6 @@ class StepFit:
             cand.objective = sum(1 - cand.scores[f"r2_{t}"] for t in self.targets)
         return cand
 
-    def accepts(self, cand: Candidate) -> bool:
-        return cand.good
-
     def rank(self, cand: Candidate) -> float:
         return cand.mean_score(self.targets)
 

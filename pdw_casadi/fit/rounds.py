@@ -46,9 +46,6 @@ class MapFit(Protocol):
         the map at their parameters from their section state), checked like an answer and
         re-simulated from its own fixed point (None: no fixed point there)."""
 
-    def accepts(self, cand) -> bool:
-        """Whether ``cand`` is an answer: stable within the accepted radius, valid."""
-
     def rank(self, cand) -> float:
         """What candidates are ranked by (higher is better): the mean R^2 of the targets."""
 
@@ -76,7 +73,7 @@ def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, log=print):
     best = None
     for k in out.get("near", ()):
         cand = fit.polish(nlp, solver.unknowns(k))
-        if cand is None or not fit.accepts(cand):
+        if cand is None or not cand.good:
             continue
         cand.polished_from = k.iteration
         if best is None or fit.rank(cand) > fit.rank(best):
@@ -130,7 +127,7 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
         cand = fit.check(nlp, out) if usable else None
         if cand is not None:
             cand.objective = out["objective"]
-        if (cand is None or not fit.accepts(cand)) and out.get("near"):
+        if (cand is None or not cand.good) and out.get("near"):
             polished = polish_iterates(fit, nlp, solver, out, log=log)
             if polished is not None:
                 cand, fallback = polished, polished.polished_from

@@ -130,9 +130,6 @@ class SidesFit:
                                  for k in self.keys)
         return cand
 
-    def accepts(self, cand: Candidate) -> bool:
-        return cand.good
-
     def rank(self, cand: Candidate) -> float:
         return cand.mean_score(self.opts.targets())
 
