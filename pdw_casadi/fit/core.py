@@ -93,9 +93,6 @@ class StepFit:
             cand.objective = sum(1 - cand.scores[f"r2_{t}"] for t in self.targets)
         return cand
 
-    def rank(self, cand: Candidate) -> float:
-        return cand.mean_score(self.targets)
-
     def gap(self, cand: Candidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[f"r2_{t}"] for t in self.targets))
 

@@ -166,17 +166,15 @@ class FitSolver:
         """The ShootingNLP unknowns of a kept iterate, within their bounds."""
         return np.clip(k.x[: self.n_w], self.lo, self.hi)
 
-    def solve(self, w0, warm: FeasibleIterate | None = None,
-              max_iter: int | None = None) -> dict:
+    def solve(self, w0, warm: FeasibleIterate | None = None) -> dict:
         """Solve from ``w0`` (ShootingNLP unknowns), or warm from the kept iterate ``warm``
-        with its multipliers (:attr:`FitOptions.warm_ipopt`); at most ``max_iter``
-        iterations (default :attr:`FitOptions.max_iter`). The answer, IPOPT status,
+        with its multipliers (:attr:`FitOptions.warm_ipopt`). The answer, IPOPT status,
         iterations, the nearly feasible iterates kept (``near``), whether it stalled."""
         opts = self.opts
         extra = {} if opts.mu_max is None else {"mu_max": opts.mu_max}
         if warm is not None:
             extra.update(opts.warm_ipopt)
-        ipopt = ipopt_settings(opts.hessian, max_iter or opts.max_iter, opts.tol,
+        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol,
                                {**extra, **opts.ipopt}, opts.log_file)
         if warm is not None:
             w0 = self.unknowns(warm)

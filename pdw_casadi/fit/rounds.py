@@ -46,9 +46,6 @@ class MapFit(Protocol):
         the map at their parameters from their section state), checked like an answer and
         re-simulated from its own fixed point (None: no fixed point there)."""
 
-    def rank(self, cand) -> float:
-        """What candidates are ranked by (higher is better): the mean R^2 of the targets."""
-
     def gap(self, cand) -> float:
         """|NLP objective - sum of 1 - R^2 of the re-simulated gait| of ``cand``."""
 
@@ -65,10 +62,11 @@ class MapFit(Protocol):
         """The name of round ``rnd`` in notes (e.g. "start 0 round 1")."""
 
 
-def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, log=print):
+def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, targets, log=print):
     """The best accepted gait the simulator polishes from the nearly feasible iterates a
     solve kept (``out["near"]``, :attr:`FitOptions.polish_infeasibility`), or None: each is
-    polished (:meth:`MapFit.polish`) and the accepted one that ranks highest is returned,
+    polished (:meth:`MapFit.polish`) and the accepted one with the highest mean R^2 of
+    ``targets`` is returned,
     marked with the iteration it came from (not certified)."""
     best = None
     for k in out.get("near", ()):
@@ -76,7 +74,7 @@ def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, log=print):
         if cand is None or not cand.good:
             continue
         cand.polished_from = k.iteration
-        if best is None or fit.rank(cand) > fit.rank(best):
+        if best is None or cand.mean_score(targets) > best.mean_score(targets):
             best = cand
     if best is not None:
         log(f"polished iteration {best.polished_from}'s iterate on the simulator: a stable, "
@@ -128,7 +126,7 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
         if cand is not None:
             cand.objective = out["objective"]
         if (cand is None or not cand.good) and out.get("near"):
-            polished = polish_iterates(fit, nlp, solver, out, log=log)
+            polished = polish_iterates(fit, nlp, solver, out, opts.targets(), log=log)
             if polished is not None:
                 cand, fallback = polished, polished.polished_from
         rho = cand.fixed_point.spectral_radius if cand else math.nan

@@ -130,9 +130,6 @@ class SidesFit:
                                  for k in self.keys)
         return cand
 
-    def rank(self, cand: Candidate) -> float:
-        return cand.mean_score(self.opts.targets())
-
     def gap(self, cand: Candidate) -> float:
         return abs(cand.objective - sum(1 - cand.scores[k.split(".")[0]][
             f"r2_{k.split('.')[1]}"] for k in self.keys))
