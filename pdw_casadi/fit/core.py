@@ -154,7 +154,7 @@ def _fit_start(problem, human, opts: FitOptions, s: int, start: Start, log=print
     fit = StepFit(problem, human, opts, s, start.label, fp0.spectral_radius, log=log,
                   floor=floor)
     rounds, solves, notes = fit_rounds(fit, fp0.state, fp0.parameters, opts, log=log,
-                                       warm=start.warm)
+                                       warm=start.warm if opts.atlas_warm_start else None)
     good = [c for c in rounds if c.good]
     best = max(good, key=lambda c: c.mean_score(targets)) if good else (
         rounds[-1] if rounds else None)

@@ -109,7 +109,11 @@ class FitOptions:
     hessian: str = "limited-memory"
     rounds: int = 2
     consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
-    sample_stride: int = 2  # RK4 samples between checked event signs and margins
+    #: RK4 samples between checked event signs and margins (two per shooting interval of
+    #: ten RK4 steps): every second sample gave 2.5 times the inequality rows and half again
+    #: the time per iteration for the same answers; the simulator's check stays the judge
+    #: (docs/results/fit.md)
+    sample_stride: int = 5
     #: every segment may grow this much (s) beyond its starting duration plus one interval
     #: (its shooting intervals bound it; docs/results/fit-settings.md)
     segment_headroom_s: float = 0.0
@@ -142,6 +146,12 @@ class FitOptions:
     stall_rtol: float = 1e-3
     stall_infeasibility: float = 1e-5
     stall_restarts: int = 1
+    #: start the first solve from an atlas entry's stored NLP solution with its multipliers
+    #: (``warm_ipopt``) instead of from the entry's gait alone: with the checks at every
+    #: fifth RK4 sample it took twice the iterations (the user's curves move the optimum off
+    #: the entry's active set, which the small barrier then crawls along;
+    #: docs/results/fit.md), so it is off
+    atlas_warm_start: bool = False
     #: IPOPT's options of a warm restart from a kept iterate with its multipliers: the
     #: iterate is taken as it is (tiny bound pushes) and the barrier starts small, so that
     #: the restart does not leave the point it starts from
