@@ -45,16 +45,24 @@ def command_help(command: str) -> str:
 
 
 def exit_codes() -> str:
-    """The contract's exit codes as a Markdown table."""
+    """The contract's exit codes as a Markdown table: those of
+    :mod:`pdw_casadi.cli.contract` and the signal codes of :mod:`pdw_casadi.engine.interrupt`
+    (Ctrl-C 130, SIGTERM 143)."""
+    import signal
+
     from pdw_casadi.cli import contract
+    from pdw_casadi.engine import interrupt
 
     rows = [
         (contract.EXIT_OK, "done (a walker that falls is a result: `failure` in the summary)"),
         (contract.EXIT_NO_GAIT, "ran, but no gait: one line `no gait: <reason>` (or "
+                                "`error: could not write FILE: ...`, a failed write; or "
                                 "`error: internal error ...`, a bug)"),
         (contract.EXIT_USAGE, "bad input: one line `error: ...`, nothing written or deleted"),
-        (contract.EXIT_INTERRUPTED, "Ctrl-C: one line `interrupted: ...` naming what is on "
-                                    "disk"),
+        (interrupt.EXIT_CODES[signal.SIGINT], "interrupted by Ctrl-C (SIGINT): one line "
+                                              "`interrupted: ...` naming what is on disk"),
+        (interrupt.EXIT_CODES[signal.SIGTERM], "terminated by SIGTERM (e.g. `kill PID`): the "
+                                               "same as Ctrl-C"),
     ]
     lines = ["| exit code | meaning |", "|---|---|"]
     lines += [f"| {code} | {text} |" for code, text in rows]

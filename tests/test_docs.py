@@ -259,3 +259,190 @@ def test_every_list_on_the_site_starts_after_a_blank_line():
                 bad.append(f"{page.relative_to(ROOT)}:{n}")
             prev = line
     assert not bad, f"a list right after a paragraph line: {bad}"
+
+
+# -- the outputs of pdw-fit: every field of summary.json is documented ------------------------
+def _function(path: Path, name: str):
+    """The ``def name`` (function or method) of the module at ``path``, as an AST node."""
+    import ast
+
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    return next(n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef) and n.name == name)
+
+
+def _dict_keys_into(fn, target: str) -> set[str]:
+    """The string keys that function ``fn`` (an AST node) puts into the dict named
+    ``target``: the keys of the dict literals bound to it, set on it (``target["k"] = v``)
+    or merged into it (``target.update({...})``), and, recursively, those of every dict
+    literal (or local name bound to one, or comprehension building one) held in them."""
+    import ast
+
+    bound: dict[str, list] = {}
+    for node in ast.walk(fn):
+        if isinstance(node, ast.Assign):
+            for t in node.targets:
+                if isinstance(t, ast.Name):
+                    bound.setdefault(t.id, []).append(node.value)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name) \
+                and node.value is not None:
+            bound.setdefault(node.target.id, []).append(node.value)
+    keys: set[str] = set()
+    seen: set[str] = set()
+
+    def visit(node) -> None:
+        if isinstance(node, ast.Dict):
+            for k, v in zip(node.keys, node.values, strict=True):
+                if isinstance(k, ast.Constant) and isinstance(k.value, str):
+                    keys.add(k.value)
+                visit(v)  # also a ** merge (k is None)
+        elif isinstance(node, ast.Name) and node.id not in seen:
+            seen.add(node.id)
+            for value in bound.get(node.id, []):
+                visit(value)
+        elif isinstance(node, ast.IfExp):
+            visit(node.body)
+            visit(node.orelse)
+        elif isinstance(node, ast.DictComp):
+            visit(node.value)
+
+    visit(ast.Name(id=target))
+    for node in ast.walk(fn):
+        if isinstance(node, ast.Assign):
+            for t in node.targets:
+                if isinstance(t, ast.Subscript) and isinstance(t.value, ast.Name) \
+                        and t.value.id == target and isinstance(t.slice, ast.Constant):
+                    keys.add(t.slice.value)
+                    visit(node.value)
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+                and node.func.attr == "update" and isinstance(node.func.value, ast.Name) \
+                and node.func.value.id == target:
+            for arg in node.args:
+                visit(arg)
+    return keys
+
+
+def _literal_keys(fn) -> set[str]:
+    """The string keys of every dict literal in function ``fn`` (an AST node)."""
+    import ast
+
+    return {k.value for n in ast.walk(fn) if isinstance(n, ast.Dict) for k in n.keys
+            if isinstance(k, ast.Constant) and isinstance(k.value, str)}
+
+
+def _fit_summary_fields() -> set[str]:
+    """Every field name of the ``summary.json`` that ``pdw-fit`` writes (one-step and per-leg
+    fits), read from the code that writes it, so that the list cannot go stale: the keys the
+    two report writers put into the summary and into its nested tables, and the fields of
+    the records it embeds (the IPOPT solves, the starts, the R² scores, a stride's legs,
+    the gait timing, the human timing values, the units block)."""
+    import ast
+    import dataclasses
+
+    from pdw_casadi.fit.result import Solve
+    from pdw_casadi.gait.timing import HUMAN_NORMS, UNITS
+
+    pkg = ROOT / "pdw_casadi"
+    fields = _dict_keys_into(_function(pkg / "report" / "fit_report.py", "write_fit_report"),
+                             "summary")
+    fields |= _dict_keys_into(_function(pkg / "report" / "fit_stride_report.py",
+                                        "write_fit_stride_report"), "summary")
+    # summary.update(cand.scores) and **_scores(...): the R² names that _scores keeps
+    fields |= {n.value for n in ast.walk(_function(pkg / "report" / "fit_report.py", "_scores"))
+               if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    fields |= {f.name for f in dataclasses.fields(Solve)}  # solver.solves[]
+    fields |= _literal_keys(_function(pkg / "fit" / "result.py", "starts_frame"))  # starts[]
+    # a stride's legs.<side> and stride values (its curves go to curves.csv)
+    fields |= _literal_keys(_function(pkg / "gait" / "stride.py", "stride_report")) - {"curves"}
+    fields |= set(UNITS) | set(HUMAN_NORMS)  # timing, timing_human.values
+    fields |= _dict_keys_into(_function(pkg / "model" / "units.py", "summary"), "out")  # legs
+    return fields
+
+
+def test_every_field_of_a_fit_summary_is_documented():
+    """The outputs page documents every field of the summary.json that pdw-fit writes
+    (``accepted``, ``stability_margin``, ``comparison``, ...), each named in backticks in
+    its section "What pdw-fit writes" (alone or as part of a dotted path such as
+    ``solver.solves[].nlp_radius_bound``)."""
+    fields = _fit_summary_fields()
+    assert {"accepted", "stability_margin", "comparison", "table3", "comparison_walker",
+            "nlp_radius_bound", "stride_spectral_radius", "legs"} <= fields, fields
+    page = (DOCS / "commands" / "outputs.md").read_text(encoding="utf-8")
+    section = page.split("\n## What pdw-fit writes\n", 1)[1].split("\n## ", 1)[0]
+    named = {word for span in re.findall(r"`([^`\n]+)`", section)
+             for word in re.findall(r"\w+", span)}
+    missing = sorted(fields - named)
+    assert not missing, f"summary.json fields not documented on commands/outputs.md: {missing}"
+
+
+def test_the_outputs_page_quotes_every_file_of_a_fit():
+    """Each file that pdw-fit writes has its own heading on the outputs page."""
+    import ast
+
+    fn = _function(ROOT / "pdw_casadi" / "cli" / "fit.py", "fit_main")
+    names = {n.value for n in ast.walk(fn) if isinstance(n, ast.Constant)
+             and isinstance(n.value, str) and re.fullmatch(r"[\w]+\.(json|csv|png|md|log)",
+                                                           n.value)}
+    assert {"summary.json", "table.md", "ipopt.log"} <= names
+    page = (DOCS / "commands" / "outputs.md").read_text(encoding="utf-8")
+    missing = [n for n in sorted(names) if f"\n### {n}\n" not in page]
+    assert not missing, f"no section of commands/outputs.md for {missing}"
+    for image in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page):
+        assert (DOCS / "commands" / image).is_file(), image
+
+
+# -- exit codes, sources, the install page -----------------------------------------------------
+def test_exit_code_tables_hold_every_code_of_the_contract():
+    """The table that every command page gets (docs/hooks.py) lists the contract's exit
+    codes and the signal codes (Ctrl-C 130, SIGTERM 143), as the commands index promises."""
+    pytest.importorskip("mkdocs", reason="the docs extra is not installed")
+    from pdw_casadi.cli import contract
+    from pdw_casadi.engine import interrupt
+
+    hooks = _load(DOCS / "hooks.py", "_docs_hooks")
+    table = hooks.exit_codes()
+    codes = {int(c) for c in re.findall(r"^\| (\d+) \|", table, flags=re.M)}
+    expected = {contract.EXIT_OK, contract.EXIT_NO_GAIT, contract.EXIT_USAGE,
+                contract.EXIT_INTERRUPTED, *interrupt.EXIT_CODES.values()}
+    assert codes == expected
+    assert {130, 143} <= codes
+    index = (DOCS / "commands" / "index.md").read_text(encoding="utf-8")
+    assert "130" in index and "143" in index
+
+
+def test_every_command_page_names_its_source_file():
+    """Each command page names the module of its command (``pdw_casadi/cli/fit.py``): the
+    site has no repository link, so the pages point to the source themselves."""
+    import inspect
+
+    import pdw_casadi.cli as cli
+    from pdw_casadi.cli import COMMANDS
+
+    for name, main in COMMANDS.items():
+        source = Path(inspect.getsourcefile(getattr(cli, main.__name__)))
+        ref = source.relative_to(ROOT).as_posix()
+        page = DOCS / "commands" / f"{name}.md"
+        assert f"`{ref}`" in page.read_text(encoding="utf-8"), f"{page.name} lacks `{ref}`"
+
+
+def test_the_install_page_matches_pyproject():
+    """docs/install.md names the Python version of ``requires-python``, every extra of
+    pyproject.toml with every package it adds, the compile cache and its switches; the home
+    page links to it."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    text = (DOCS / "install.md").read_text(encoding="utf-8")
+    version = re.search(r"\d+\.\d+", project["requires-python"]).group()
+    assert f"Python {version} or later" in text
+    assert project["requires-python"] in text
+    base = {re.split(r"[<>=\[ ]", d)[0] for d in project["dependencies"]}
+    for extra, requirements in project["optional-dependencies"].items():
+        assert f"`{extra}`" in text, extra
+        for req in requirements:
+            name = re.split(r"[<>=\[ ]", req)[0]
+            if name == project["name"]:  # another extra: named above
+                continue
+            if name not in base:
+                assert f"`{name}" in text, f"extra {extra}: {name} not on the install page"
+    for word in ("$PDW_CACHE", "~/.cache/pdw_casadi", "PDW_NO_COMPILE=1", "$CC", "gcc",
+                 'pip install -e .', 'pip install -e ".[dev]"', "git clone", "venv"):
+        assert word in text, word
+    assert "(install.md)" in (DOCS / "index.md").read_text(encoding="utf-8")

@@ -359,3 +359,41 @@ def test_the_summary_status_is_the_status_of_the_solve_the_gait_came_from():
         "Solve_Succeeded"
     assert answer_status(None, solves) == "Maximum_Iterations_Exceeded"
     assert answer_status(None, []) is None
+
+
+def test_table_md_names_the_solve_and_the_fitted_compliance_with_units(problem, hs):
+    """table.md's solve table: IPOPT's status of the solve the gait came from and whether
+    the answer is certified optimal (plainly NO when it is not); its compliance table: each
+    fitted value beside the problem file's, with its unit (stiffness N m/rad, damping
+    N m s/rad, angles rad) and whether the fit varied it."""
+    from types import SimpleNamespace
+
+    from pdw_casadi.fit.result import Solve
+    from pdw_casadi.model.units import Units
+    from pdw_casadi.report.fit_report import compliance_table, solve_table
+
+    solves = [Solve(0, 0, "Solve_Succeeded", 20, 5.0, 0.3),
+              Solve(0, 1, "Maximum_Iterations_Exceeded", 300, 90.0, 0.3)]
+    good = SimpleNamespace(solver_status="Solve_Succeeded", certified=True, polished_from=None)
+    text = solve_table(good, solves)
+    assert "| solver status (IPOPT, the solve this gait came from) | Solve_Succeeded |" in text
+    assert "| certified optimal | yes |" in text
+    assert "| IPOPT iterations (all solves) | 320 |" in text
+    short = SimpleNamespace(solver_status="Maximum_Iterations_Exceeded", certified=False,
+                            polished_from=None)
+    text = solve_table(short, solves)
+    assert "| Maximum_Iterations_Exceeded |" in text
+    assert "| certified optimal | NO: IPOPT stopped short of convergence" in text
+    assert "| certified optimal | - (no gait) |" in solve_table(None, solves)
+
+    fitted = {k: 2.0 * v for k, v in problem.compliance.items()} | {"slope": problem.slope}
+    text = compliance_table(fitted, {**problem.compliance, "slope": problem.slope},
+                            Units(hs).of, free=set(problem.compliance))
+    lines = text.splitlines()
+    assert lines[0] == "| parameter | this fit | problem file | unit | free in the fit |"
+    rows = {line.split(" | ")[0][2:]: line.split(" | ")[1:] for line in lines[2:]}
+    assert list(rows) == [*problem.compliance, "slope"]
+    assert rows["k_knee"] == [f"{fitted['k_knee']:.5g}", f"{problem.compliance['k_knee']:.5g}",
+                              "N m/rad", "yes |"]
+    assert rows["c_ankle"][2] == "N m s/rad" and rows["theta_eq"][2] == "rad"
+    assert rows["slope"][2:] == ["rad", "no |"]

@@ -66,5 +66,81 @@ def test_legends_sit_outside_the_data(walk):
             assert inter_w <= 1 or inter_h <= 1, (fig.axes.index(ax), box, data)
             # and inside the figure (constrained layout made room for it)
             assert box.x1 <= fig.bbox.x1 + 1 and box.y0 >= fig.bbox.y0 - 1
-    assert n_legends == 4
+    assert n_legends == 3  # plot_fit: one legend for both panels
     assert np.isfinite(figs[2].axes[0].get_ylim()).all()
+
+
+def test_the_fit_figure_has_one_legend_a_title_and_labelled_events():
+    """fit.png: the title names the curve file and the walker, the axes say the sign
+    convention, one legend serves both panels (each model once, with both R^2) and each gait
+    event is one legend entry whose line style says the event and colour the source."""
+    human = load_gait_curves("female_fast.csv").resample(101)
+    model = pd.DataFrame({"cycle_pct": human.cycle_pct, "knee_deg": human.knee_deg + 5,
+                          "hip_deg": human.hip_deg - 5})
+    markers = {"human toe off": 60.0, "fit foot flat": 0.8, "fit heel off": 50.0,
+               "fit toe off": 51.1}
+    fig = plot_fit(human, {"this fit": model}, markers=markers, walker="humanlike_6link",
+                   scores={"this fit": {"r2_knee": 0.857, "r2_hip": 0.805}})
+    title = fig._suptitle.get_text()
+    assert "female_fast.csv" in title and "humanlike_6link" in title
+    assert [ax.get_ylabel() for ax in fig.axes] == ["knee flexion (deg, + flexion)",
+                                                    "hip flexion (deg, + flexion)"]
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    assert len(legends) == 1 and not fig.legends
+    texts = [t.get_text() for t in legends[0].get_texts()]
+    assert len(texts) == len(set(texts)) == 3 + len(markers)
+    assert "this fit\nR$^2$: knee 0.857, hip 0.805" in texts
+    for label, pct in markers.items():
+        assert texts.count(f"{label} ({pct:.1f} %)") == 1
+    lines = {t.get_text(): h for t, h in zip(legends[0].get_texts(),
+                                              legends[0].legend_handles, strict=True)}
+    style = {k.split(" (")[0]: (h.get_color(), h.get_linestyle()) for k, h in lines.items()
+             if k.split(" (")[0] in markers}
+    # the same event in the same style, the same source in the same colour
+    assert style["human toe off"][1] == style["fit toe off"][1]
+    assert style["human toe off"][0] != style["fit toe off"][0]
+    assert len({style[k][1] for k in ("fit foot flat", "fit heel off", "fit toe off")}) == 3
+    assert len({style[k][0] for k in ("fit foot flat", "fit heel off", "fit toe off")}) == 1
+    # each event is drawn on both panels
+    for ax in fig.axes:
+        assert sum(len(line.get_xdata()) == 2 and line.get_xdata()[0] == 50.0
+                   for line in ax.lines) == 1
+
+
+def _label_boxes(fig):
+    r = _renderer(fig)
+    return [[t.get_window_extent(r) for t in ax.texts] for ax in fig.axes]
+
+
+def test_the_limit_cycle_is_in_degrees_with_a_key_and_labels_that_do_not_overlap(walk):
+    _, traj, _ = walk
+    fig = plot_limit_cycle(traj, legs=(("q_st",), ("q_sw",)), walker="compass_gait")
+    ax = fig.axes[0]
+    assert "deg" in ax.get_xlabel() and ax.get_ylabel() == "angular velocity (deg/s)"
+    assert "compass_gait" in fig._suptitle.get_text()
+    step0 = traj[traj["step"] == 0]
+    np.testing.assert_allclose(ax.lines[0].get_xdata(), np.degrees(step0["q_st"]))
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), np.degrees(step0["dq_st"]))
+    key = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert key[:2] == ["step 1 (stance)", "step 2 (swing)"]
+    assert key[2:] == ["section+: just after the section transition (start of the step)",
+                       "section-: just before the section transition (end of the step)"]
+    for boxes in _label_boxes(fig):
+        assert boxes and not any(a.overlaps(b) for i, a in enumerate(boxes)
+                                 for b in boxes[i + 1:])
+
+
+def test_the_six_link_limit_cycle_key_explains_the_papers_labels(table2_step, problem):
+    from pdw_casadi.model.faces import walker_faces
+
+    fig = plot_limit_cycle(table2_step.trajectory, faces=walker_faces(problem))
+    assert fig._suptitle.get_text().startswith(problem.family)
+    key = [t.get_text() for t in fig.axes[-1].get_legend().get_texts()]
+    assert key[1:] == ["a+: just after foot strike (start of the step)", "b: toe off",
+                       "c-: just before heel strike", "c+: just after heel strike",
+                       "a-: just before foot strike (end of the step)"]
+    markers = [h.get_marker() for h in fig.axes[-1].get_legend().legend_handles[1:]]
+    assert len(set(markers)) == 5  # one shape per instant: the key tells them apart
+    for ax, boxes in zip(fig.axes, _label_boxes(fig), strict=True):
+        assert [t.get_text() for t in ax.texts] == ["a+", "b", "c-", "c+", "a-"]
+        assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])

@@ -178,3 +178,7 @@ def test_fit_tiny(name, tmp_path, capsys):
     assert code == 0, capsys.readouterr()
     for f in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md"):
         assert (out / f).exists(), f
+    table = (out / "table.md").read_text()  # every walker's: the solve and its compliance
+    assert "| solver status (IPOPT, the solve this gait came from) |" in table
+    assert "| certified optimal |" in table
+    assert "## Compliance and slope" in table and "| N m/rad |" in table

@@ -2,10 +2,14 @@
 
 The fit and its references are computed by :func:`pdw_casadi.studies.fit_run.run_fit`; this
 module renders its :class:`~pdw_casadi.studies.fit_run.FitRun` into the report files.
+``table.md`` holds the R^2 and spectral radius of the fit and its references, the solve
+(IPOPT's status of the solve the gait came from, certified optimal or not), the fitted
+compliance and slope with their units beside the problem file's, and the gait timing.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Collection, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,7 +19,7 @@ import pandas as pd
 from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.gait.timing import timing_table
 from pdw_casadi.model.gait_data import CYCLE_POINTS
-from pdw_casadi.model.units import summary_units
+from pdw_casadi.model.units import Units, summary_units
 from pdw_casadi.report.plots import plot_fit, plot_limit_cycle
 
 if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
@@ -43,18 +47,59 @@ def uncertified_note(cand) -> str:
             "feasible iterate, checked on the simulator (a better fit may exist)")
 
 
+def _f(v, fmt="{:.3f}") -> str:
+    return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) else fmt.format(v)
+
+
+def solve_table(cand, solves) -> str:
+    """The markdown table of the answer's solve (table.md): IPOPT's status of the solve the
+    gait came from (:func:`answer_status`), whether the answer is certified optimal
+    (:attr:`~pdw_casadi.fit.result.Candidate.certified`; "-" without a gait) and the IPOPT
+    iterations of all solves."""
+    status = answer_status(cand, solves)
+    if cand is None:
+        certified = "- (no gait)"
+    elif cand.certified:
+        certified = "yes" if cand.solver_status is not None else "yes (no NLP solve)"
+    else:
+        # plain words, as in the headline: a reader of the table alone must see it
+        if cand.polished_from is not None:
+            how = (f"an IPOPT iterate (iteration {cand.polished_from}) polished on the "
+                   "simulator, not the NLP's optimum")
+        else:
+            how = ("IPOPT stopped short of convergence; this is its best feasible iterate, "
+                   "checked on the simulator")
+        certified = f"NO: {how} (a better fit may exist)"
+    return ("| solve | value |\n|---|---|\n"
+            f"| solver status (IPOPT, the solve this gait came from) | {status or '-'} |\n"
+            f"| certified optimal | {certified} |\n"
+            f"| IPOPT iterations (all solves) | {sum(s.iterations for s in solves)} |\n")
+
+
+def compliance_table(fitted: Mapping[str, float], reference: Mapping[str, float],
+                     unit: Callable[[str], str | None],
+                     free: Collection[str] | None = None) -> str:
+    """The markdown table of the fitted parameters (table.md): one row per name of
+    ``fitted`` (compliance values, then the slope) with the fit's value, the problem file's
+    (``reference``), the unit (``unit(name)``: stiffness ``k_*`` N m/rad, damping ``c_*``
+    N m s/rad, angles rad) and whether the fit varied it (``free``: the NLP's free names;
+    None: all)."""
+    lines = ["| parameter | this fit | problem file | unit | free in the fit |",
+             "|---|---|---|---|---|"]
+    for name, value in fitted.items():
+        lines.append(f"| {name} | {_f(value, '{:.5g}')} | "
+                     f"{_f(reference.get(name), '{:.5g}')} | {unit(name) or '-'} | "
+                     f"{'yes' if free is None or name in free else 'no'} |")
+    return "\n".join(lines) + "\n"
+
+
 def _table(rows: list[tuple[str, dict]]) -> str:
     lines = ["| gait | knee R^2 | hip R^2 | thigh R^2 | spectral radius | stable |",
              "|---|---|---|---|---|---|"]
-
-    def f(v, fmt="{:.3f}"):
-        return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) \
-            else fmt.format(v)
-
     for name, d in rows:
         stable = d.get("stable")
-        lines.append(f"| {name} | {f(d.get('r2_knee'))} | {f(d.get('r2_hip'))} | "
-                     f"{f(d.get('r2_thigh'))} | {f(d.get('spectral_radius'), '{:.4f}')} | "
+        lines.append(f"| {name} | {_f(d.get('r2_knee'))} | {_f(d.get('r2_hip'))} | "
+                     f"{_f(d.get('r2_thigh'))} | {_f(d.get('spectral_radius'), '{:.4f}')} | "
                      f"{'-' if stable is None else ('yes' if stable else 'no')} |")
     return "\n".join(lines) + "\n"
 
@@ -97,7 +142,7 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
     markers = {"human toe off": norms["toe_off_pct"]}
     if fit_timing is not None:
         markers.update({f"fit {k}": v for k, v in fit_timing.markers().items()})
-    plot_fit(h, models, out / "fit.png", scores=scores, markers=markers)
+    plot_fit(h, models, out / "fit.png", scores=scores, markers=markers, walker=problem.name)
 
     summary: dict = {"gait_file": str(human.source), "problem": problem.name,
                      "targets": list(res.targets), "paper_reported": paper,
@@ -132,7 +177,8 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
             "certified": cand.certified,
             "timing": None if fit_timing is None else fit_timing.to_dict()})
         plot_limit_cycle(run.limit_cycle, out / "limit_cycle.png", faces=run.faces,
-                         title=f"{problem.name}, fitted compliance: one leg over two steps")
+                         title=f"{problem.name}, fitted compliance: one leg over two steps "
+                               "(deg, deg/s)")
     rows = [("paper, reported (its own four subjects)", paper)] if paper else []
     rows.append(("problem file's compliance, re-run here",
                  {**_scores(table3), "spectral_radius": table3["spectral_radius"],
@@ -152,8 +198,14 @@ def write_fit_report(run: FitRun, out: Path) -> dict:
     timings = {"this fit": fit_timing, "problem file's compliance": table3.get("timing")}
     if comparison is not None:
         timings["comparison walker"] = comparison.get("timing")
-    (out / "table.md").write_text(head + _table(rows) + "\n## Gait timing\n\n"
-                                  + timing_table(timings, human))
+    text = head + _table(rows) + "\n## Solve\n\n" + solve_table(cand, res.solves)
+    if cand is not None:
+        free = set(opts.free or problem.compliance_names) | (
+            {"slope"} if opts.free_slope else set())  # the NLP's free names (fit.core)
+        text += ("\n## Compliance and slope\n\n" + compliance_table(
+            {**summary["compliance"], "slope": summary["slope"]},
+            {**problem.compliance, "slope": problem.slope}, Units(run.system).of, free))
+    (out / "table.md").write_text(text + "\n## Gait timing\n\n" + timing_table(timings, human))
     if cand is None:
         summary["headline"] = "no fit: " + "; ".join(res.notes or ["every start failed"])
     else:

@@ -23,7 +23,7 @@ from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.fit.result import Candidate, FitResult
 from pdw_casadi.model.gait_data import CYCLE_POINTS, SIDES
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES, summary_units
-from pdw_casadi.report.fit_report import answer_status, uncertified_note
+from pdw_casadi.report.fit_report import answer_status, solve_table, uncertified_note
 from pdw_casadi.report.plots import plot_fit
 
 if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
@@ -41,11 +41,14 @@ def _f(v, fmt="{:.3f}") -> str:
     return "-" if v is None or (isinstance(v, float) and not np.isfinite(v)) else fmt.format(v)
 
 
-def plot_stride_fit(sides, models: dict, path, scores: dict | None = None) -> Figure:
-    """Knee and hip of each leg (rows: left, right) over its own gait cycle against its
-    side's human curve (+/- SD where given): ``models`` = {label: {side: curves frame}},
-    ``scores`` = {label: {side: {r2_knee, ...}}}."""
-    fig = Figure(figsize=(11, 10.5), layout="constrained")
+def plot_stride_fit(sides, models: dict, path, scores: dict | None = None,
+                    title: str | None = None) -> Figure:
+    """Knee and hip flexion (deg, flexion positive) of each leg (rows: left, right) over its
+    own gait cycle (%) against its side's human curve (+/- SD where given): ``models`` =
+    {label: {side: curves frame}}, ``scores`` = {label: {side: {r2_knee, ...}}}; one legend
+    per row (its labels name the leg), ``title`` above all (default: the curve file's
+    name)."""
+    fig = Figure(figsize=(14, 10.5), layout="constrained")
     axes = fig.subplots(2, 2, squeeze=False)
     for row, side in zip(axes, SIDES, strict=True):
         plot_fit(sides.side(side).resample(CYCLE_POINTS),
@@ -54,6 +57,8 @@ def plot_stride_fit(sides, models: dict, path, scores: dict | None = None) -> Fi
                                for label, s in (scores or {}).items()}, ax=list(row))
         row[0].set_title(f"{side} leg: knee (human: {side} side)")
         row[1].set_title(f"{side} leg: hip, model thigh from the slope normal")
+    if title:  # else each row's plot_fit named the curve file
+        fig.suptitle(title, fontsize=11)
     fig.savefig(Path(path), dpi=120)
     return fig
 
@@ -123,7 +128,8 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
             for j in JOINTS:
                 cols[f"{key}_{s}_{j}_deg"] = m[s][f"{j}_deg"].to_numpy()
     pd.DataFrame(cols).to_csv(out / "curves.csv", index=False)
-    plot_stride_fit(sides, models, out / "fit.png", scores)
+    plot_stride_fit(sides, models, out / "fit.png", scores,
+                    title=f"Per-leg fit of {problem.name} to {Path(str(sides.source)).name}")
     start_comp = run.start_compliance
     summary: dict = {
         "gait_file": str(sides.source), "problem": problem.name, "targets": list(res.targets),
@@ -158,7 +164,8 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
             f"Objective: the sum over both legs of 1 - R^2 of knee and {res.targets[1]}, each "
             f"leg over its own gait cycle against its side's curves ({CYCLE_POINTS} points); free: "
             f"{', '.join(res.free)}.\n\n")
-    (out / "table.md").write_text(head + _table(res, cand, comp, start_comp, ok))
+    (out / "table.md").write_text(head + _table(res, cand, comp, start_comp, ok)
+                                  + "\n## Solve\n\n" + solve_table(cand, res.solves))
     if cand is None:
         summary["headline"] = "no stride fit: " + "; ".join(res.notes or ["the solve failed"])
     else:

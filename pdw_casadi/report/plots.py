@@ -285,32 +285,131 @@ def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
     (just after the section transition, ``<label>+``), every transition inside the step
     (an impact gives ``<label>-`` / ``<label>+``, a smooth switch one mark) and the end
     (``<label>-`` of the section transition)."""
+    return {label: row for label, (row, _) in _instants_meaning(seg, faces).items()}
+
+
+def _words(transition: str) -> str:
+    return transition.replace("_", " ")
+
+
+def _instants_meaning(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, tuple[int, str]]:
+    """:func:`_instants` with what each label means (the figure's key): ``+`` just after,
+    ``-`` just before an impact, no sign the instant of a smooth switch."""
     sec = faces.section_transition
     sec_label = faces.instant_label(sec.name) if sec else "section"
-    rows = {f"{sec_label}+": 0}
+    sec_words = _words(sec.name) if sec else "the section transition"
+    rows = {f"{sec_label}+": (0, f"just after {sec_words} (start of the step)")}
     ph = seg["phase"].astype(str).to_numpy()
     for i in np.flatnonzero(ph[1:] != ph[:-1]):
         tr = faces.transition_from(ph[i], ph[i + 1])
         label = faces.instant_label(tr.name) if tr else f"{ph[i]}->{ph[i + 1]}"
+        words = _words(tr.name) if tr else f"phase {ph[i]} to {ph[i + 1]}"
         if tr is not None and tr.impact:
-            rows[f"{label}-"], rows[f"{label}+"] = int(i), int(i) + 1
+            rows[f"{label}-"] = (int(i), f"just before {words}")
+            rows[f"{label}+"] = (int(i) + 1, f"just after {words}")
         else:
-            rows[label] = int(i)
-    rows[f"{sec_label}-"] = len(seg) - 1
+            rows[label] = (int(i), words)
+    rows[f"{sec_label}-"] = (len(seg) - 1, f"just before {sec_words} (end of the step)")
     return rows
 
 
+#: marker of each key instant on the limit-cycle figure, in the order the step meets them
+INSTANT_MARKERS = ("o", "^", "s", "D", "v", "P", "X", "*", "p", "h")
+#: candidate label offsets (points) around a marked point, nearest first
+_LABEL_OFFSETS = tuple((r * dx, r * dy) for r in (4, 9, 15, 22)
+                       for dx, dy in ((1, 1), (1, -1), (-1, 1), (-1, -1), (1, 0), (-1, 0),
+                                      (0, 1), (0, -1)))
+
+
+def _label_box(px, py, ox, oy, w, h, scale):
+    """The display box (x0, y0, x1, y1) of a label of w x h points, offset (ox, oy) points
+    from (px, py) and aligned away from the point."""
+    x = px + ox * scale
+    y = py + oy * scale
+    x0 = x if ox > 0 else x - w * scale if ox < 0 else x - w * scale / 2
+    y0 = y if oy > 0 else y - h * scale if oy < 0 else y - h * scale / 2
+    return x0, y0, x0 + w * scale, y0 + h * scale
+
+
+def _overlap(a, b) -> float:
+    return max(0.0, min(a[2], b[2]) - max(a[0], b[0])) * max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+
+
+def _place_labels(ax, points, fontsize: float = 8.0) -> None:
+    """Write each label of ``points`` ((x, y, text), data units) beside its point where it
+    overlaps no label already placed and no marked point and lies nearer its own point than
+    any other, inside the axes if it can (the nearest such place; else the least bad one,
+    with a leader line when it is far). Instants of a step often fall on one spot (foot
+    strike and toe-off are milliseconds apart, an impact keeps the angle): written at one
+    fixed offset, their labels were printed on top of each other. Positions are read from
+    the axes as laid out when this runs."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+
+    fig = ax.figure
+    scale = fig.dpi / 72.0
+    prop = FontProperties(size=fontsize)
+    to_px = ax.transData.transform
+    frame = ax.get_window_extent()
+    frame = (frame.x0, frame.y0, frame.x1, frame.y1)
+    pix = [tuple(to_px((x, y))) for x, y, _ in points]
+    dot = 4.0 * scale  # half the size of a marker, display units
+    gap = 2.5 * scale
+    dots = [(px - dot, py - dot, px + dot, py + dot) for px, py in pix]
+    placed: list[tuple] = []
+    # a line's full height, as a Text lays it out (ascent of "l", descent of "p")
+    _, h, _ = text_to_path.get_text_width_height_descent("lp", prop, ismath=False)
+    for (x, y, text), (px, py) in zip(points, pix, strict=True):
+        w, _, _ = text_to_path.get_text_width_height_descent(text, prop, ismath=False)
+        w, h = w + 1.0, h + 1.0  # a point of air around the glyphs
+        best = None
+        for ox, oy in _LABEL_OFFSETS:
+            box = _label_box(px, py, ox, oy, w, h, scale)
+            outside = box[0] < frame[0] or box[1] < frame[1] or box[2] > frame[2] \
+                or box[3] > frame[3]
+            # a label nearer another marked point than its own reads as that point's
+            cx, cy = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2
+            own = np.hypot(cx - px, cy - py)
+            nearer = any(np.hypot(cx - qx, cy - qy) < own - 1e-9 for qx, qy in pix)
+            # labels that touch read as one ("a-a+"): keep a gap between labels
+            padded = (box[0] - gap, box[1] - gap, box[2] + gap, box[3] + gap)
+            # worst a label on a label, then one outside the axes (on the tick labels),
+            # then one nearer another point, then one on a marker
+            crowded = any(_overlap(padded, other) > 0 for other in placed)
+            cost = (1e7 if crowded else 0.0) + (1e6 if outside else 0.0) \
+                + (1e3 if nearer else 0.0) + sum(_overlap(box, other) for other in dots)
+            if best is None or cost < best[0]:
+                best = (cost, ox, oy, box)
+            if cost == 0.0:
+                break
+        _, ox, oy, box = best
+        far = abs(ox) > 9 or abs(oy) > 9
+        ax.annotate(text, (x, y), textcoords="offset points", xytext=(ox, oy),
+                    ha="left" if ox > 0 else "right" if ox < 0 else "center",
+                    va="bottom" if oy > 0 else "top" if oy < 0 else "center",
+                    fontsize=fontsize, zorder=5,
+                    arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "0.45",
+                                "shrinkA": 0, "shrinkB": 3} if far else None)
+        placed.append(box)
+
+
 def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str | None = None,
-                     faces: WalkerFaces | None = None, *, ax=None) -> Figure:
-    """The paper's Fig. 4: phase portraits of each segment of one leg over two steps.
+                     faces: WalkerFaces | None = None, *, walker: str | None = None,
+                     ax=None) -> Figure:
+    """The paper's Fig. 4: phase portraits of each segment of one leg over two steps, in deg
+    (absolute angle from the vertical, counter-clockwise positive: the segment's distal end
+    ahead) against deg/s.
 
     ``trajectory`` holds (at least) two steps from a fixed point; the physical leg is leg 1
     (stance) in step 0 and leg 2 (swing) in step 1. ``legs``: its coordinate names per
     step, one per segment (default: the walker's, from ``faces``), e.g. (shank, thigh)
-    ``(("q1", "q2"), ("q4", "q3"))``. Key instants of each step are marked with the
-    walker's transition labels (the 6-link walker: the paper's a+ after foot strike, b
-    toe-off, c- / c+ heel strike, a- before foot strike). Angles in rad, rates in rad/s.
-    ``ax``: one Axes per segment. Returns the figure (also written to ``path`` if given).
+    ``(("q1", "q2"), ("q4", "q3"))``. Key instants of each step are marked (one marker shape
+    per instant) and labelled with the walker's transition labels, which the legend
+    explains: ``+`` just after an impact, ``-`` just before, no sign a smooth switch (the
+    6-link walker: the paper's a+ after foot strike, b toe-off, c- / c+ heel strike, a-
+    before foot strike). The title names ``walker`` (default: the walker family of
+    ``faces``; ``title`` replaces it). ``ax``: one Axes per segment. Returns the figure
+    (also written to ``path`` if given).
     """
     faces = _faces(trajectory, faces)
     legs = tuple(tuple(leg) for leg in (legs or faces.legs))
@@ -319,64 +418,151 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str 
     n_seg = len(legs[0])
     segments = faces.leg_segments if len(faces.leg_segments) == n_seg else \
         tuple(f"segment {i + 1}" for i in range(n_seg))
-    fig, axes = _axes(ax, 1, n_seg, (5 * n_seg + 1.5, 4.2))
+    fig, axes = _axes(ax, 1, n_seg, (5 * n_seg + 3.5, 4.6))
     colors = ("tab:blue", "tab:orange")
     steps = _run_steps(trajectory)
+    key: dict[str, tuple[str, str]] = {}  # label -> (marker, meaning), first seen first
+    labels: list[list] = [[] for _ in axes]
     for k, names in enumerate(legs):
         seg = trajectory[steps == k]
         if seg.empty:
             continue
         role = "stance" if k == 0 else "swing"
-        marks = _instants(seg, faces)
-        for ax, name in zip(axes, names, strict=True):
-            ax.plot(seg[name], seg["d" + name], color=colors[k % 2], lw=1.4,
-                    label=f"step {k + 1} ({role})")
-            for lab, i in marks.items():
-                xv, yv = seg[name].iloc[i], seg["d" + name].iloc[i]
-                ax.plot(xv, yv, "o", color="k", ms=3.5)
-                ax.annotate(lab, (xv, yv), textcoords="offset points", xytext=(4, 4),
-                            fontsize=8)
+        marks = _instants_meaning(seg, faces)
+        for lab, (_, meaning) in marks.items():
+            key.setdefault(lab, (INSTANT_MARKERS[len(key) % len(INSTANT_MARKERS)], meaning))
+        for j, (ax, name) in enumerate(zip(axes, names, strict=True)):
+            # degrees, as fit.png and the angle plot: a reader compares the figures
+            q, dq = np.degrees(seg[name].to_numpy()), np.degrees(seg["d" + name].to_numpy())
+            ax.plot(q, dq, color=colors[k % 2], lw=1.4, label=f"step {k + 1} ({role})")
+            for lab, (i, _) in marks.items():
+                ax.plot(q[i], dq[i], key[lab][0], color="k", mfc="white", mew=1.0, ms=5,
+                        zorder=4)
+                labels[j].append((q[i], dq[i], lab))
     for i, (ax, what) in enumerate(zip(axes, segments, strict=True)):
-        ax.set_xlabel("absolute angle (rad)")
-        ax.set_ylabel("angular velocity (rad/s)")
+        ax.set_xlabel("absolute angle (deg, from the vertical; + distal end ahead)")
+        ax.set_ylabel("angular velocity (deg/s)")
         ax.set_title(f"({chr(ord('a') + i)}) {what}" if n_seg > 1 else what)
         ax.grid(alpha=0.3)
-    axes[-1].legend(fontsize=8, **OUTSIDE_RIGHT)
-    if title:
-        fig.suptitle(title)
+        ax.margins(0.08)  # room for the labels of instants at the edge of the cycle
+    handles, _ = axes[0].get_legend_handles_labels()
+    handles += [Line2D([], [], ls="", marker=m, color="k", mfc="white", mew=1.0, ms=5,
+                       label=f"{lab}: {meaning}") for lab, (m, meaning) in key.items()]
+    axes[-1].legend(handles=handles, fontsize=8, **OUTSIDE_RIGHT)
+    name = walker or faces.family
+    fig.suptitle(title or (f"{name}: " if name else "") + "limit cycle of one leg over two "
+                 "steps (deg, deg/s)")
+    # labels last: their places are found on the axes as laid out with legend and title
+    fig.draw_without_rendering()
+    for ax, points in zip(axes, labels, strict=True):
+        _place_labels(ax, points)
     return _save(fig, path, 120)
 
 
+#: y-axis labels of the fit figure: the sign convention of the human data and the model
+#: alike (flexion positive: the knee bent, the thigh's distal end ahead of the hip)
+FIT_LABELS = {"knee": "knee flexion (deg, + flexion)", "hip": "hip flexion (deg, + flexion)"}
+#: line style of each gait event on the fit figure (the event names of
+#: :meth:`pdw_casadi.gait.timing.GaitTiming.markers`); others cycle through EXTRA_EVENT_STYLES
+EVENT_STYLES = {"heel strike": "-", "foot flat": ":", "heel off": "-.", "toe off": "--"}
+EXTRA_EVENT_STYLES = ((0, (5, 1, 1, 1, 1, 1)), (0, (3, 3)), (0, (8, 2)))
+#: colours of the events' sources that are not a model's (a model's events take its curve's
+#: colour, human events the human curve's black): colours no model curve takes among the
+#: first four (models draw C0, C1, ...)
+EVENT_COLORS = ("tab:purple", "tab:brown", "tab:olive", "tab:cyan")
+
+
+def _event_styles(markers: dict, curve_colors: dict | None = None) -> dict[str, tuple[str, object]]:
+    """label -> (colour, line style) of each gait-event marker ("<source> <event>", e.g.
+    "human toe off", "fit heel off"): the colour says whose event it is (human: black),
+    the line style which event, so that two events a few % apart (the fit's heel off and
+    toe off) stay distinguishable. ``curve_colors``: model label -> its curve's colour, for
+    the events of a source that is a model."""
+    curve_colors = curve_colors or {}
+    colors: dict[str, str] = {}
+    styles: dict[str, object] = {}
+    out = {}
+    for label in markers:
+        # "<source> <event>" or "<source>: <event>"; a source may have spaces of its own
+        known = next((e for e in EVENT_STYLES if label.endswith(" " + e)), None)
+        if known is not None:
+            source, event = label[:-len(known)].rstrip(" :"), known
+        else:
+            source, _, event = label.partition(" ")
+        if source not in colors:
+            others = sum(c not in ("human", *curve_colors) for c in colors)
+            colors[source] = "k" if source == "human" else curve_colors.get(
+                source, EVENT_COLORS[others % len(EVENT_COLORS)])
+        if event not in styles:
+            extra = sum(e not in EVENT_STYLES for e in styles)
+            styles[event] = EVENT_STYLES.get(
+                event, EXTRA_EVENT_STYLES[extra % len(EXTRA_EVENT_STYLES)])
+        out[label] = (colors[source], styles[event])
+    return out
+
+
+def _curves_name(human) -> str:
+    """The file name of the human curves (their name when they came from no file)."""
+    source = getattr(human, "source", None)
+    return Path(str(source)).name if source is not None else str(getattr(human, "name", "?"))
+
+
 def plot_fit(human, models: dict, path=None, scores: dict | None = None, *,
-             markers: dict | None = None, ax=None) -> Figure:
-    """The paper's Fig. 5: knee (a) and hip (b) over the gait cycle, human mean +/- SD and
-    one curve per model (deg against % of the cycle); R^2 in the legends (below the
-    panels) when given; ``markers``: label -> % of the cycle, drawn as vertical lines (gait
-    events; labels starting with "human" dashed). ``ax``: two Axes. Returns the figure
-    (also written to ``path``)."""
-    fig, axes = _axes(ax, 1, 2, (11, 5.2))
+             markers: dict | None = None, walker: str | None = None,
+             title: str | None = None, ax=None) -> Figure:
+    """The paper's Fig. 5: knee (a) and hip (b) flexion (deg, flexion positive) over the gait
+    cycle (%), human mean +/- SD and one curve per model.
+
+    ``scores``: label -> {"r2_knee", "r2_hip"} of each model, shown in its legend entry.
+    ``markers``: "<source> <event>" -> % of the cycle (e.g. "human toe off", "fit heel
+    off"), drawn as vertical lines on both panels: the colour says the source (human:
+    black; a model label: its curve's colour), the line style the event. One legend for
+    the figure, to the right of the hip panel; each entry appears once. The title names the
+    curve file and ``walker`` (default; ``title`` replaces it). ``ax``: two Axes. Returns
+    the figure (also written to ``path``).
+    """
+    fig, axes = _axes(ax, 1, 2, (13.5, 5.0))
     pct = human.cycle_pct
+    events = {k: v for k, v in (markers or {}).items() if v is not None}
+    # each model its colour of the default cycle, named so that its events can share it
+    curve_colors = {label: f"C{i % 10}" for i, label in enumerate(models)}
+    styles = _event_styles(events, curve_colors)
     for ax, name, mean, sd in ((axes[0], "knee", human.knee_deg, human.knee_sd_deg),
                                (axes[1], "hip", human.hip_deg, human.hip_sd_deg)):
         if sd is not None:
             ax.fill_between(pct, mean - sd, mean + sd, color="0.85", label="human +/- SD")
         ax.plot(pct, mean, color="k", lw=1.8, label="human mean")
         for label, model in models.items():
-            r2 = (scores or {}).get(label, {}).get(f"r2_{name}")
-            tag = f" (R$^2$ = {r2:.3f})" if r2 is not None else ""
-            ax.plot(model["cycle_pct"], model[f"{name}_deg"], lw=1.5, label=label + tag)
-        for i, (label, pct_m) in enumerate((markers or {}).items()):
-            if pct_m is not None:
-                ax.axvline(pct_m, color=f"C{(i + 3) % 10}", lw=0.9, alpha=0.8,
-                           ls="--" if label.startswith("human") else ":",
-                           label=f"{label} ({pct_m:.1f} %)")
+            # the same label on both panels: the legend takes each entry once
+            ax.plot(model["cycle_pct"], model[f"{name}_deg"], lw=1.5, color=curve_colors[label],
+                    label=label + _r2_tag((scores or {}).get(label, {})))
+        for label, pct_m in events.items():
+            color, ls = styles[label]
+            ax.axvline(pct_m, color=color, ls=ls, lw=1.3, alpha=0.9, zorder=1.5,
+                       label=f"{label} ({pct_m:.1f} %)")
         ax.set_xlabel("gait cycle (%)")
-        ax.set_ylabel(f"{name} angle (deg)")
+        ax.set_ylabel(FIT_LABELS[name])
+        ax.set_xlim(0, 100)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, **OUTSIDE_BELOW)
+    handles: dict = {}
+    for a in axes:  # a curve only one panel has (an SD band) still gets its entry
+        for h, lab in zip(*a.get_legend_handles_labels(), strict=True):
+            handles.setdefault(lab, h)
+    axes[-1].legend(list(handles.values()), list(handles), fontsize=8, **OUTSIDE_RIGHT)
     axes[0].set_title("(a) knee")
-    axes[1].set_title("(b) hip (model thigh from the slope normal)")
+    axes[1].set_title("(b) hip (model: thigh from the slope normal)")
+    head = f"Fit of {walker} to {_curves_name(human)}" if walker else \
+        f"Knee and hip over the gait cycle: {_curves_name(human)}"
+    fig.suptitle(title or head, fontsize=11)
     return _save(fig, path, 120)
+
+
+def _r2_tag(score: dict) -> str:
+    """The R^2 of a model's legend entry ("" without scores): one entry serves both panels,
+    so it names the joint of each value."""
+    parts = [f"{joint} {score[f'r2_{joint}']:.3f}" for joint in ("knee", "hip")
+             if score.get(f"r2_{joint}") is not None]
+    return "\nR$^2$: " + ", ".join(parts) if parts else ""
 
 
 #: short labels of sweep events on the bifurcation figure
