@@ -81,3 +81,72 @@ def test_build_libraries_fills_the_cache_that_the_first_calls_load(tmp_path, mon
     np.testing.assert_array_equal(lazy.np(arg), np.asarray(f(arg)))
     np.testing.assert_array_equal(group.np("g")(arg), np.asarray(g(arg)))
     np.testing.assert_array_equal(group.np("h")(arg), np.asarray(h(arg)))
+
+
+def test_a_stored_function_is_built_once_and_loaded_with_the_same_values(tmp_path,
+                                                                        monkeypatch):
+    """stored(): the first call builds and stores the derived function, a second (as in a
+    new process: the key is the source's serialization) loads it without building, with
+    identical values; a damaged file is rebuilt; at most STORED_KEEP are kept per tag."""
+    import casadi as ca
+
+    from pdw_casadi.engine import compile as comp
+
+    monkeypatch.setenv("PDW_CACHE", str(tmp_path))
+    x = ca.SX.sym("x", 3)
+    src = ca.Function("src", [x], [ca.vertcat(ca.sin(x[0]) * x[1], x[2] ** 3)])
+    builds = []
+
+    def build():
+        builds.append(1)
+        return ca.Function("src_jac", [x], [ca.jacobian(src(x), x)])
+
+    first = comp.stored(src, build, "t")
+    again = comp.stored(src, build, "t")
+    assert len(builds) == 1
+    pt = np.array([0.3, -1.2, 2.0])
+    assert np.array_equal(np.asarray(first(pt)), np.asarray(again(pt)))
+    assert np.allclose(np.asarray(again(pt)), [[np.cos(0.3) * -1.2, np.sin(0.3), 0],
+                                               [0, 0, 12.0]])
+    (path,) = tmp_path.glob("t_*.casadi.z")
+    path.write_bytes(b"not a function")
+    assert np.array_equal(np.asarray(comp.stored(src, build, "t")(pt)), np.asarray(first(pt)))
+    assert len(builds) == 2
+    monkeypatch.setattr(comp, "STORED_KEEP", 2)
+    for k in range(4):  # other sources: the oldest stored ones go
+        z = ca.SX.sym("z")
+        comp.stored(ca.Function(f"s{k}", [z], [z * (k + 2)]), lambda: src, "t")
+    assert len(list(tmp_path.glob("t_*.casadi.z"))) == 2
+
+
+def test_a_library_found_by_signature_is_checked_by_its_values(tmp_path, monkeypatch):
+    """A new process finds a function's library under its cheap signature without hashing
+    its serialization; a function of the same structure with another constant (another
+    body's walker) shares the signature but not the values, so it gets its own library,
+    which computes its own values."""
+    import casadi as ca
+
+    from pdw_casadi.engine import compile as comp
+
+    monkeypatch.setenv("PDW_CACHE", str(tmp_path))
+    hashed = []
+    full = comp._full_key
+    monkeypatch.setattr(comp, "_full_key", lambda f, fl: hashed.append(1) or full(f, fl))
+
+    def walker(mass):
+        x = ca.SX.sym("x", 2)
+        return ca.Function("leg", [x], [ca.vertcat(mass * ca.sin(x[0]), x[1] ** 2 / mass)])
+
+    pt = np.array([0.4, 1.5])
+    light, heavy = walker(2.0), walker(3.0)
+    assert comp._signature([light], comp.PLAIN) == comp._signature([heavy], comp.PLAIN)
+    first = comp.compiled(light, comp.PLAIN)
+    assert len(hashed) == 1
+    comp._KEYS.clear()  # as a new process: nothing remembered by identity
+    again = comp.compiled(walker(2.0), comp.PLAIN)
+    assert len(hashed) == 1  # found by its signature and values, not hashed
+    assert np.array_equal(np.asarray(again(pt)), np.asarray(first(pt)))
+    other = comp.compiled(heavy, comp.PLAIN)
+    assert len(hashed) == 2  # same signature, other values: hashed, its own library
+    assert np.allclose(np.asarray(other(pt)).ravel(), [3.0 * np.sin(0.4), 1.5 ** 2 / 3.0])
+    assert len(list(tmp_path.glob("leg_*.so"))) == 2

@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import threading
+import zlib
 from collections import OrderedDict
 from contextlib import contextmanager
 from pathlib import Path
@@ -252,26 +253,101 @@ _KEYS: OrderedDict[tuple, tuple[list, str]] = OrderedDict()
 _KEYS_MAX = 512
 
 
+def _full_key(funs: list, flags: tuple[str, ...]) -> str:
+    """The exact cache key of ``funs`` compiled with ``flags``: a hash of their
+    serialization (about 0.4 s for a walker's fit functions)."""
+    text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
+    return hashlib.sha1(text.encode()).hexdigest()[:20]
+
+
+def _signature(funs: list, flags: tuple[str, ...]) -> str:
+    """A cheap fingerprint of ``funs`` (names, kinds, shapes, instruction and node counts):
+    equal for the same functions, and also for functions of the same structure with other
+    constants (another body's walker); :func:`_same_values` tells those apart."""
+    parts = [ca.__version__, " ".join(flags)]
+    for f in funs:
+        shapes = [(f.size_in(i), f.nnz_in(i)) for i in range(f.n_in())] + \
+            [(f.size_out(i), f.nnz_out(i)) for i in range(f.n_out())]
+        parts.append(f"{f.name()}|{f.class_name()}|{f.n_instructions()}|{f.n_nodes()}|{shapes}")
+    return hashlib.sha1("\n".join(parts).encode()).hexdigest()[:20]
+
+
+#: relative difference up to which a compiled library and CasADi's virtual machine count
+#: as the same function at the probe point (they run the same operations in the same
+#: order; the slack covers the C compiler's and the machine's rounding)
+SAME_VALUES_RTOL = 1e-9
+
+
+def _same_values(funs: list, so: Path) -> bool:
+    """Whether the library ``so`` computes ``funs`` at a fixed pseudo-random point: every
+    output finite somewhere and equal to CasADi's own evaluation. Two functions of the
+    same structure but other constants (the only ones :func:`_signature` confuses) differ
+    there; an all-NaN output proves nothing and counts as different."""
+    rng = np.random.default_rng(20261207)
+    for f in funs:
+        args = [ca.DM(f.sparsity_in(i), rng.uniform(0.2, 0.8, f.nnz_in(i)))
+                for i in range(f.n_in())]
+        try:
+            mine = f.call(args)
+            theirs = ca.external(f.name(), str(so)).call(args)
+        except RuntimeError:
+            return False
+        for a, b in zip(mine, theirs, strict=True):
+            a, b = np.asarray(a.nonzeros(), float), np.asarray(b.nonzeros(), float)
+            if a.shape != b.shape or (a.size and not np.isfinite(a).any()):
+                return False
+            if not np.allclose(a, b, rtol=SAME_VALUES_RTOL, atol=1e-12, equal_nan=True):
+                return False
+    return True
+
+
+#: keys remembered per signature (:func:`_cache_path`): walkers of the same structure
+#: (bodies of a cohort) share a signature
+_SIGNATURE_KEYS = 8
+
+
 def _cache_path(funs: list, flags: tuple[str, ...]) -> Path | None:
     """Where the library of ``funs`` compiled with ``flags`` lives in the cache (None: no
-    usable cache)."""
+    usable cache). The exact key hashes the functions' serialization; a process that finds
+    a library under the functions' cheap :func:`_signature` (``keys/`` in the cache)
+    checks that it is intact and computes the same values (:func:`_same_values`) instead
+    of serializing them again."""
     ident = (tuple(id(f) for f in funs), flags)
     with _LOCK:
         hit = _KEYS.get(ident)
         if hit is not None:
             _KEYS.move_to_end(ident)
-    if hit is not None:
-        key = hit[1]
-    else:
-        text = "".join(f.serialize() for f in funs) + " ".join(flags) + ca.__version__
-        key = hashlib.sha1(text.encode()).hexdigest()[:20]
-        with _LOCK:
-            _KEYS[ident] = (list(funs), key)
-            while len(_KEYS) > _KEYS_MAX:
-                _KEYS.popitem(last=False)
-    with _LOCK:
         base = _usable_cache()
-    return None if base is None else base / f"{funs[0].name()}_{key}.so"
+    if base is None:
+        return None
+    if hit is not None:
+        return base / f"{funs[0].name()}_{hit[1]}.so"
+    index = base / "keys" / _signature(funs, flags)
+    try:
+        known = index.read_text().split()
+    except OSError:
+        known = []
+    key = None
+    for cand in known:
+        so = base / f"{funs[0].name()}_{cand}.so"
+        if so.is_file() and _verified(so, funs) is None and _same_values(funs, so):
+            key = cand
+            break
+    if key is None:
+        key = _full_key(funs, flags)
+        known = [key, *(k for k in known if k != key)][:_SIGNATURE_KEYS]
+        try:
+            index.parent.mkdir(exist_ok=True)
+            tmp = index.with_suffix(f".{os.getpid()}.{threading.get_ident()}")
+            tmp.write_text("\n".join(known) + "\n")
+            os.replace(tmp, index)
+        except OSError:
+            pass  # not remembered: hashed again next time
+    with _LOCK:
+        _KEYS[ident] = (list(funs), key)
+        while len(_KEYS) > _KEYS_MAX:
+            _KEYS.popitem(last=False)
+    return base / f"{funs[0].name()}_{key}.so"
 
 
 def _library(funs: list, flags: tuple[str, ...], so: Path | None = None) -> Path | None:
@@ -362,6 +438,45 @@ def compiled(fun, flags: tuple[str, ...] = HOT):
         return fun
     ext = [ca.external(f.name(), str(so)) for f in funs]
     return ext if isinstance(fun, list | tuple) else ext[0]
+
+
+#: stored functions kept per tag (:func:`stored`), the most recently used: one fit NLP's
+#: row Jacobian is about 4 MB compressed, and each start gait's NLP has its own
+STORED_KEEP = 16
+
+
+def stored(source: ca.Function, build, tag: str) -> ca.Function:
+    """The function ``build()`` derives from ``source`` (e.g. its Jacobian), built once per
+    machine and kept serialized (zlib) in the cache (``tag_<key>.casadi.z``), keyed by
+    ``source``'s serialization and CasADi's version: a new process loads it (about half the
+    time of building an expanded Jacobian) instead of differentiating again. The
+    :data:`STORED_KEEP` most recently used of a tag are kept. Without a usable cache, or
+    when the stored file does not load, it is built (and stored again)."""
+    with _LOCK:
+        base = _usable_cache()
+    if base is None:
+        return build()
+    key = hashlib.sha1((source.serialize() + ca.__version__).encode()).hexdigest()[:20]
+    path = base / f"{tag}_{key}.casadi.z"
+    if path.is_file():
+        try:
+            fun = ca.Function.deserialize(zlib.decompress(path.read_bytes()).decode())
+            os.utime(path)  # recently used: kept
+            return fun
+        except (OSError, RuntimeError, zlib.error, UnicodeDecodeError):
+            _warn(str(path), f"damaged stored function {path}: rebuilt")
+    fun = build()
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    try:
+        # level 1: a ninth of the text's size, decompressed in a tenth of a second
+        tmp.write_bytes(zlib.compress(fun.serialize().encode(), 1))
+        os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
+        old = sorted(base.glob(f"{tag}_*.casadi.z"), key=lambda q: q.stat().st_mtime)
+        for q in old[:-STORED_KEEP]:
+            q.unlink(missing_ok=True)
+    except (OSError, RuntimeError):
+        tmp.unlink(missing_ok=True)  # not stored: built again next time
+    return fun
 
 
 _INT = ctypes.c_longlong  # casadi_int of the generated code

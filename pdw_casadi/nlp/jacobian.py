@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from pdw_casadi.engine.callback import NumericFunction
+from pdw_casadi.engine.compile import stored
 from pdw_casadi.nlp.interval import interval_natives
 
 
@@ -33,6 +34,17 @@ def _csc(dm: ca.DM) -> sps.csc_matrix:
     sp = dm.sparsity()
     return sps.csc_matrix((np.asarray(dm.nonzeros(), float), np.asarray(sp.row()),
                            np.asarray(sp.colind())), shape=(sp.size1(), sp.size2()))
+
+
+def _rows_jacobian(G: ca.Function) -> ca.Function:
+    """(x, S) -> (dg/dx, dg/dS) of the rows G(x, S)."""
+    try:  # SX: differentiated and evaluated far faster than the MX graph
+        G = G.expand()
+        xs_, S_ = G.sx_in()
+    except RuntimeError:  # a walker function that has no SX form
+        xs_, S_ = G.mx_in()
+    gv = G(xs_, S_)
+    return ca.Function("rows_jac", [xs_, S_], [ca.jacobian(gv, xs_), ca.jacobian(gv, S_)])
 
 
 class StructuredJacobian:
@@ -57,14 +69,7 @@ class StructuredJacobian:
         if G.has_free():
             raise ValueError("the rows depend on the samples other than through the NLP's "
                              "intervals")
-        try:  # SX: differentiated and evaluated far faster than the MX graph
-            G = G.expand()
-            xs_, S_ = G.sx_in()
-        except RuntimeError:  # a walker function that has no SX form
-            xs_, S_ = G.mx_in()
-        gv = G(xs_, S_)
-        self._G = ca.Function("rows_jac", [xs_, S_], [ca.jacobian(gv, xs_),
-                                                     ca.jacobian(gv, S_)])
+        self._G = stored(G, lambda: _rows_jacobian(G), "rows_jac")
         Gx0, GS0 = (self._G.sparsity_out(i) for i in range(2))
         used = np.unique(np.asarray(GS0.get_col(), int)) if GS0.nnz() else np.zeros(0, int)
         self._used = used
