@@ -41,6 +41,7 @@ import numpy as np
 
 from pdw_casadi.fit import FitOptions
 from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.stability import RADIUS_BOUND
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.report.fit_report import write_fit_report
@@ -122,8 +123,8 @@ def _row(f: str, s: dict, wall: float, goal_s: float) -> dict:
         "time": wall <= goal_s,
         "ipopt": bool(solver["solves"]) and all(x == "Solve_Succeeded"
                                                  for x in row["statuses"]),
-        "stable": row["stable"] and row["rho"] <= 0.9,
-        "valid": row["valid"] and row["resim"] < 1e-6,
+        "stable": row["stable"] and row["rho"] <= RADIUS_BOUND,  # the fit's NLP bound
+        "valid": row["valid"] and row["resim"] < FitOptions.resim_tol,
         "knee>T3": row["r2_knee"] > row["t3_knee"],
         "mean>T3": row["r2_knee"] + row["r2_hip"] > row["t3_knee"] + row["t3_hip"],
     }

@@ -41,6 +41,7 @@ from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import load_problem
+from pdw_casadi.nlp.driver import IPOPT_TOL
 from pdw_casadi.nlp.shooting import ShootingNLP
 
 
@@ -70,7 +71,7 @@ def solve(nlp, objective, max_iter: int):
     solver = ca.nlpsol("seed", "ipopt", {"x": nlp.w, "f": objective, "g": nlp.g},
                        {"ipopt": {"hessian_approximation": "limited-memory",
                                   "max_iter": max_iter, "print_level": 0, "sb": "yes",
-                                  "tol": 1e-6, "mu_strategy": "adaptive"},
+                                  "tol": IPOPT_TOL, "mu_strategy": "adaptive"},
                         "print_time": False})
     sol = solver(x0=nlp.w0, lbx=lo, ubx=hi, lbg=nlp.lbg, ubg=nlp.ubg)
     return nlp.unpack(sol["x"].full()), solver.stats()["return_status"]

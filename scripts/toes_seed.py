@@ -29,6 +29,7 @@ import numpy as np
 
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.stability import RADIUS_BOUND
 from pdw_casadi.gait.timing import gait_timing, phase_contacts
 from pdw_casadi.model.problem import load_problem
 
@@ -50,8 +51,8 @@ def timing(step, family="humanlike_toes") -> dict:
 def score(r) -> tuple:
     """Sort key: stable and valid first, then heel off inside 25-40 %, then rho."""
     ho = r["timing"].get("heel_off_pct") or 50.0
-    return (not (r["rho"] <= 0.9 and r["valid"]), abs(float(np.clip(ho, 25, 40)) - ho),
-            r["rho"])
+    stable = r["rho"] <= RADIUS_BOUND and r["valid"]
+    return (not stable, abs(float(np.clip(ho, 25, 40)) - ho), r["rho"])
 
 
 def continuation(pb, sim, key: str, stop: float, num: int) -> list[dict]:

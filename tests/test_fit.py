@@ -57,7 +57,7 @@ def test_identifiability_two_dampers(problem, tmp_path):
     rel = np.abs(cand.parameters[idx] - p_true[idx]) / np.abs(p_true[idx])
     assert rel.max() < 1e-3, rel
     assert cand.scores["r2_knee"] > 0.999 and cand.scores["r2_hip"] > 0.999
-    assert cand.resimulation_deviation < 1e-6
+    assert cand.resimulation_deviation < FitOptions.resim_tol
 
 
 def test_identifiability_all_compliance(problem, tmp_path):
@@ -80,7 +80,7 @@ def test_identifiability_all_compliance(problem, tmp_path):
     print(dict(zip(free, rel, strict=True)), cand.scores)
     assert rel.max() < 1e-3, dict(zip(free, rel, strict=True))
     assert cand.scores["r2_knee"] > 0.999 and cand.scores["r2_hip"] > 0.999
-    assert cand.resimulation_deviation < 1e-6
+    assert cand.resimulation_deviation < FitOptions.resim_tol
 
 
 def test_fit_bundled_curves_stable_and_the_nlp_bound_implies_the_simulators_radius(problem):
@@ -97,7 +97,7 @@ def test_fit_bundled_curves_stable_and_the_nlp_bound_implies_the_simulators_radi
     best = res.best
     assert best is not None and best.stable and best.valid
     nlp_bound = res.solves[-1].nlp_radius_bound
-    assert nlp_bound <= opts.max_radius - opts.radius_margin + 1e-6  # IPOPT tol
+    assert nlp_bound <= opts.radius_bound() + opts.tol  # held to IPOPT's tolerance
     sim_rho = best.fixed_point.spectral_radius
     assert sim_rho <= nlp_bound + 1e-6 and sim_rho <= opts.max_radius
     assert opts.stability_bound == "power"
@@ -140,7 +140,7 @@ def test_point_foot_kneed_walker_fits_its_slope(tmp_path):
                      "--out", str(out), "--max-iter", "30", "--quiet"])
     s = json.loads((out / "summary.json").read_text())
     assert code == 0 and s["stable"] and s["valid"]
-    assert s["resimulation_deviation"] < 1e-6
+    assert s["resimulation_deviation"] < FitOptions.resim_tol
     assert s["r2_hip"] > 0.3  # the slope is fitted: the problem file's own gives 0.135
 
 

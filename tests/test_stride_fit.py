@@ -157,6 +157,33 @@ def test_one_stability_rule_for_the_step_and_the_stride(max_radius):
     assert _candidate(0.64, 2).mean_score(("knee", "hip")) == pytest.approx(0.75)
 
 
+def test_the_accepted_radius_has_one_home():
+    """pdw_casadi.gait.stability holds the accepted per-step radius and the NLP's margin;
+    the fit's verdict, the bound of a subject's body (the fit's NLP bound) and the
+    prosthesis design's stride verdict (that bound squared, by the fit's rule for a map of
+    n steps) derive from it, with the values they had (0.91, 0.9, 0.81: exactly), and the
+    commands' flags default to them."""
+    import argparse
+
+    from pdw_casadi.cli.common import fit_arguments
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.gait.stability import MAX_RADIUS, RADIUS_BOUND, RADIUS_MARGIN, map_radius
+    from pdw_casadi.studies.cohort import CohortOptions
+    from pdw_casadi.studies.prosthesis import DesignNLPOptions
+    from pdw_casadi.studies.scaling import BODY_MAX_RADIUS
+
+    fit, design = FitOptions(), DesignNLPOptions()
+    assert (fit.max_radius, fit.radius_margin) == (MAX_RADIUS, RADIUS_MARGIN) == (0.91, 0.01)
+    assert fit.radius_bound(1) == RADIUS_BOUND == BODY_MAX_RADIUS == 0.9
+    assert CohortOptions().body_max_radius == BODY_MAX_RADIUS
+    assert design.max_stride_radius == fit.radius_bound(2) == map_radius(0.9, 2) == 0.81
+    assert design.max_step_radius == RADIUS_BOUND and design.radius_margin == RADIUS_MARGIN
+    assert fit.accepted_radius(2) == MAX_RADIUS ** 2
+    parser = argparse.ArgumentParser()
+    fit_arguments(parser, fit)
+    assert parser.parse_args([]).max_radius == MAX_RADIUS
+
+
 @pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 8 min on 2 shared cores
 def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     """pdw-fit on a real subject's per-side file: the stride fit re-simulates as a stable
@@ -164,6 +191,7 @@ def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     scored against its own side, the objective is no worse than the symmetric start's, and
     the NLP objective is the re-simulated sum of 1 - R^2 (1e-3 relative)."""
     from pdw_casadi.cli import fit_main
+    from pdw_casadi.fit.options import FitOptions
 
     out = tmp_path / "fit"
     code = fit_main(["--gait", str(SUBJECT), "--out", str(out), "--quiet"])
@@ -171,8 +199,8 @@ def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     print(printed)
     assert code == 0 and summary["accepted"]
-    assert summary["stride_spectral_radius"] <= 0.91 ** 2
-    assert summary["valid"] and summary["resimulation_deviation"] < 1e-6
+    assert summary["stride_spectral_radius"] <= FitOptions().accepted_radius(2)
+    assert summary["valid"] and summary["resimulation_deviation"] < FitOptions.resim_tol
     legs, start = summary["legs"], summary["start"]["scores"]
     miss = sum(1 - legs[s][f"r2_{j}"] for s in ("left", "right") for j in ("knee", "hip"))
     miss0 = sum(1 - start[s][f"r2_{j}"] for s in ("left", "right") for j in ("knee", "hip"))

@@ -11,7 +11,10 @@ import pytest
 from pdw_casadi.fit import StabilityRow
 from pdw_casadi.gait.stride import find_stride_fixed_point, stride_map
 from pdw_casadi.nlp.shooting import ShootingNLP
-from pdw_casadi.studies.prosthesis import atlas_problem, prosthetic_problem
+from pdw_casadi.studies.prosthesis import DesignNLPOptions, atlas_problem, prosthetic_problem
+
+#: the design's verdict on the stride's spectral radius (0.81 = 0.9 per step)
+STRIDE_RADIUS = DesignNLPOptions.max_stride_radius
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +131,7 @@ def _design_checks(base, res, lighter):
 
     fp, rep = res.fixed_point, res.report
     assert res.reached and fp.converged and fp.valid
-    assert fp.spectral_radius <= 0.81
+    assert fp.spectral_radius <= STRIDE_RADIUS
     assert abs(rep["step_length_asymmetry_pct"]) < 1.0
     assert abs(rep["step_time_asymmetry_pct"]) < 1.0
     assert abs(lighter_mass(res.problem) - (1 - lighter)) < 1e-12
@@ -147,7 +150,7 @@ def test_design_nlp_makes_a_slightly_lighter_leg_symmetric_and_stable(base):
     x = find_stride_fixed_point(base).state
     plain = prosthetic_problem(base, lighter)
     fp_plain = find_stride_fixed_point(plain, x0=x, fallback=False)
-    assert fp_plain.converged and fp_plain.spectral_radius > 0.81
+    assert fp_plain.converged and fp_plain.spectral_radius > STRIDE_RADIUS
     res = design_prosthesis_nlp(base, x0=x, lighter=lighter,
                                 options=DesignNLPOptions(first_step=lighter), log=None)
     _design_checks(base, res, lighter)
@@ -195,7 +198,7 @@ def test_design_nlp_accepts_only_verified_answers(base):
                                         accept_verified=accept))
         (sv,) = res.solves
         assert sv.status == "Maximum_Iterations_Exceeded"
-        verified = (bool(sv.valid) and sv.stride_radius <= 0.81
+        verified = (bool(sv.valid) and sv.stride_radius <= STRIDE_RADIUS
                     and abs(sv.step_length_asymmetry_pct) < 1.0
                     and abs(sv.step_time_asymmetry_pct) < 1.0)
         assert sv.accepted == (verified and accept)
@@ -302,7 +305,8 @@ def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
     smap = stride_map(pb)
     x0 = pb.state_vector() + 1e-5
     fp = find_stride_fixed_point(pb, x0=x0, tol=1e-10, smap=smap, fallback=False)
-    assert fp.converged and fp.iterations > 0 and fp.valid and fp.spectral_radius <= 0.81
+    assert fp.converged and fp.iterations > 0 and fp.valid and \
+        fp.spectral_radius <= STRIDE_RADIUS
     assert np.abs(fp.state - pb.state_vector()).max() < 1e-8
     rep = stride_report(smap, fp.state, fp.parameters, curves=False)
     assert abs(rep["step_length_asymmetry_pct"]) < 1.0

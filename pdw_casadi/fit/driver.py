@@ -66,7 +66,8 @@ class FitSolver:
         reported objective, which stays the curve part. ``errors``: the curve error rows
         (key -> (err, SS_tot)) instead of :func:`curve_errors` of ``human`` (the stride fit's
         per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
-        bound (default ``max_radius - radius_margin``; a stride's is that squared).
+        bound (default :meth:`FitOptions.radius_bound`, ``max_radius - radius_margin``; a
+        stride's is that squared).
         ``knee_floor``: a row knee R^2 >= this value (:attr:`FitOptions.knee_floor`)."""
         self.nlp, self.opts, self.log = nlp, opts, log
         if opts.jacobian not in ("structured", "casadi"):
@@ -112,8 +113,7 @@ class FitSolver:
         self.ubg = np.r_[nlp.ubg, np.zeros(ne), floor_ub]
         if self.row is not None:
             self.lbg = np.r_[self.lbg, -np.inf]
-            bound = opts.max_radius - opts.radius_margin if radius_bound is None \
-                else radius_bound
+            bound = opts.radius_bound() if radius_bound is None else radius_bound
             self.ubg = np.r_[self.ubg, bound]
             # a stride's row is the per-step bound squared: so is its iterates' cap
             self.per_step = radius_bound is not None

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from pdw_casadi.gait.stability import MAX_RADIUS, RADIUS_MARGIN, map_radius
 from pdw_casadi.model.gait_data import SIDES
+from pdw_casadi.nlp.driver import IPOPT_TOL
 
 #: the settings of the per-leg fit only (a one-step fit ignores them)
 PER_LEG_FIELDS = ("side", "start")
@@ -18,12 +20,14 @@ class FitOptions:
     from the gravity vertical, like-for-like with the human thigh column).
 
     Stability: ``max_radius`` is the largest accepted spectral radius per step of the
-    simulator's Poincare map (the verdict; a fit on the stride, two steps, accepts a stride
-    radius up to ``max_radius``^2: :attr:`~pdw_casadi.fit.result.Candidate.stable`); the NLP
-    bounds its stability row (``stability_bound``: by default ||J^8||_F^(1/8) of its own
-    step's Jacobian J, an upper bound of rho) by ``max_radius - radius_margin``, on the
-    stride by that squared (:meth:`radius_bound`), so the verdict holds with
-    ``radius_margin`` to spare for the NLP's and the simulator's step sizes.
+    simulator's Poincare map (the verdict; default the toolkit's one home for it,
+    :data:`~pdw_casadi.gait.stability.MAX_RADIUS`); a fit on the stride, two steps, accepts a
+    stride radius up to ``max_radius``^2 (:meth:`accepted_radius`,
+    :attr:`~pdw_casadi.fit.result.Candidate.stable`); the NLP bounds its stability row
+    (``stability_bound``: by default ||J^8||_F^(1/8) of its own step's Jacobian J, an upper
+    bound of rho) by ``max_radius - radius_margin``, on the stride by that squared
+    (:meth:`radius_bound`), so the verdict holds with ``radius_margin`` to spare for the
+    NLP's and the simulator's step sizes.
 
     Starts: the ``multistart`` gaits, of the atlas entries (stable gaits shipped with the
     package) and the problem's own, whose curves fit the user's best, the most stable first
@@ -51,8 +55,8 @@ class FitOptions:
     free_slope: bool = False
     slope_bounds: tuple[float, float] = (0.05, 0.25)  # rad
     free: tuple[str, ...] | None = None  # compliance names to fit (default: all)
-    max_radius: float = 0.91
-    radius_margin: float = 0.01
+    max_radius: float = MAX_RADIUS
+    radius_margin: float = RADIUS_MARGIN
     stability_constraint: bool = True
     #: the stability row: "power" (||J^k||_F^(1/k), k = ``stability_power``: no
     #: perturbation grows by more than the bound^k over k steps, which implies rho <= bound),
@@ -98,7 +102,7 @@ class FitOptions:
     #: (None: one per core; the answer does not depend on it)
     threads: int | None = None
     max_iter: int = 300
-    tol: float = 1e-6
+    tol: float = IPOPT_TOL
     #: the largest barrier parameter IPOPT may choose (its ``mu_max``): a fit starts at a
     #: stable gait near the answer, with about 10^4 inequality rows (margins, event signs)
     #: against an objective of order 0.1-1; when IPOPT's adaptive rule resets the barrier to
@@ -183,5 +187,12 @@ class FitOptions:
 
     def radius_bound(self, steps: int = 1) -> float:
         """The NLP's stability-row bound on the map of ``steps`` steps: the per-step bound
-        ``max_radius - radius_margin`` to the power ``steps``."""
-        return (self.max_radius - self.radius_margin) ** steps
+        ``max_radius - radius_margin`` to the power ``steps``
+        (:func:`~pdw_casadi.gait.stability.map_radius`)."""
+        return map_radius(self.max_radius - self.radius_margin, steps)
+
+    def accepted_radius(self, steps: int = 1) -> float:
+        """The verdict's largest accepted spectral radius of the map of ``steps`` steps:
+        ``max_radius`` to the power ``steps`` (the rule of
+        :attr:`~pdw_casadi.fit.result.Candidate.stable`)."""
+        return map_radius(self.max_radius, steps)

@@ -3,6 +3,7 @@
 - :mod:`.simulate`: the hybrid simulator with exact event location;
 - :mod:`.poincare`: the Poincare map and its exact AD Jacobian;
 - :mod:`.fixed_point`: periodic gaits (fixed points) and their stability;
+- :mod:`.stability`: the spectral radius a gait must have to be accepted (one home);
 - :mod:`.stride`: the stride map of a walker whose legs differ;
 - :mod:`.continuation`, :mod:`.bifurcation`, :mod:`.sweep`: parameter sweeps;
 - :mod:`.design`: parameters that put a gait where it is wanted, by continuation;

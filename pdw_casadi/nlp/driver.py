@@ -30,6 +30,11 @@ from pdw_casadi.engine.callback import NumericFunction
 from pdw_casadi.nlp.jacobian import StructuredJacobian
 from pdw_casadi.nlp.stability import StabilityRow
 
+#: IPOPT's convergence tolerance (its ``tol``, on the scaled NLP error; dimensionless) of
+#: every NLP of the toolkit (``FitOptions.tol``, ``DesignNLPOptions.tol``): a row or bound
+#: held to it counts as held (the fit's best feasible iterate) and one within it of its
+#: bound as binding (the design's diagnosis)
+IPOPT_TOL = 1e-6
 #: IPOPT return statuses that count as a solved NLP
 SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 

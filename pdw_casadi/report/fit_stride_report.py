@@ -92,7 +92,7 @@ def _table(res: FitResult, cand: Candidate | None, comp: dict | None,
         f"{legs['right']['step_time_s']:.4f} |\n"
         f"| step-length asymmetry (%) | {rep['step_length_asymmetry_pct']:+.3f} |\n"
         f"| step-time asymmetry (%) | {rep['step_time_asymmetry_pct']:+.3f} |\n"
-        f"| stride spectral radius (<= {res.options.max_radius ** 2:.4f}) | "
+        f"| stride spectral radius (<= {res.options.accepted_radius(cand.steps):.4f}) | "
         f"{fp.spectral_radius:.4f} |\n"
         f"| per-step equivalent (its square root) | {np.sqrt(fp.spectral_radius):.4f} |\n"
         f"| valid | {'yes' if cand.valid else 'no'} |\n"
@@ -136,7 +136,7 @@ def write_fit_stride_report(run: FitSidesRun, out: Path) -> dict:
         "fit": "stride", "side": opts.side, "free": list(res.free),
         "start": {"label": res.start["label"], "scores": res.start["scores"],
                   "compliance": start_comp},
-        "max_radius": opts.max_radius, "stride_max_radius": opts.max_radius ** 2,
+        "max_radius": opts.max_radius, "stride_max_radius": opts.accepted_radius(2),  # 2 steps
         "stable": False, "valid": False, "accepted": ok,
         "solver": {"solves": [s.to_dict() for s in res.solves],
                    "status": answer_status(cand, res.solves),

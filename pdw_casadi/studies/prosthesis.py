@@ -51,6 +51,7 @@ from pdw_casadi.gait.design import (
     symmetry_conditions,
 )
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
+from pdw_casadi.gait.stability import RADIUS_BOUND, RADIUS_MARGIN, map_radius
 from pdw_casadi.gait.stride import (
     find_stride_fixed_point,
     physical_parameter_names,
@@ -60,6 +61,7 @@ from pdw_casadi.gait.stride import (
     with_physical_parameters,
 )
 from pdw_casadi.model.problem import Problem, ProblemError
+from pdw_casadi.nlp.driver import IPOPT_TOL
 
 #: the prosthetic leg's compliance left free by default (the angles stay)
 FREE = ("k_ankle", "c_ankle", "k_knee", "c_knee_flex", "c_knee_ext", "c_knee_stance")
@@ -203,7 +205,10 @@ class DesignNLPOptions:
     the NLP, % (0: equal; below the verdict's ``symmetry_verdict_pct``).
     Stability: the NLP bounds the smooth bound rho_32 (>= the spectral radius) of the
     stride Jacobian by ``max_stride_radius - radius_margin``; the re-simulated stride
-    radius is the verdict (<= ``max_stride_radius``; 0.81 = 0.9 per step). IPOPT:
+    radius is the verdict (<= ``max_stride_radius``; 0.81 = 0.9 per step: the fit's
+    per-step NLP bound :data:`~pdw_casadi.gait.stability.RADIUS_BOUND` squared, as
+    ``FitOptions.radius_bound(2)`` squares it; the margin comes off the stride's radius
+    here, 0.80, not off the step's as in the fit's stride NLP, 0.89^2). IPOPT:
     ``max_iter``, ``tol``, ``hessian``; ``sample_stride`` as in
     :class:`~pdw_casadi.fit.FitOptions`.
 
@@ -219,10 +224,10 @@ class DesignNLPOptions:
     #: the verdict's largest |step-length| and |step-time asymmetry|, % (symmetry_tol_pct,
     #: the NLP's own tolerance, must lie below it)
     symmetry_verdict_pct: float = 1.0
-    max_stride_radius: float = 0.81
-    radius_margin: float = 0.01
+    max_stride_radius: float = map_radius(RADIUS_BOUND, 2)  # 0.9 per step, squared
+    radius_margin: float = RADIUS_MARGIN
     max_iter: int = 100  # IPOPT iterations per homotopy step
-    tol: float = 1e-6
+    tol: float = IPOPT_TOL
     hessian: str = "limited-memory"
     sample_stride: int = 2
     headroom_s: float = 0.0
@@ -383,7 +388,7 @@ class ProsthesisDesignSolver:
         return [*self.nlp.g_names, "asymmetry:step_length", "asymmetry:step_time",
                 "stability:rho32"]
 
-    def binding(self, out: dict, top: int = 10, tol: float = 1e-6) -> list[dict]:
+    def binding(self, out: dict, top: int = 10, tol: float = IPOPT_TOL) -> list[dict]:
         """The inequality rows, asymmetry rows and bounds that bind at a solve's answer
         ``out`` (:meth:`solve`), by name: the largest |multiplier| of the group, the
         smallest distance to its bound (in the row's units), how many of its rows are

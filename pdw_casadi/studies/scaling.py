@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pdw_casadi.gait.stability import RADIUS_BOUND
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, ProblemError, load_problem
 
 #: de Leva (1996), Table 4: reference stature (m), body mass (kg) and per segment
@@ -59,11 +60,13 @@ _LENGTHS = ("l_s", "l_t", "l_f", "l_sc", "l_tc", "l_fc", "l_ft", "l_fh")
 _MASSES = ("m_h", "m_t", "m_s", "m_f")
 _INERTIAS = ("J_t", "J_s", "J_f")
 _RATES = ("dq1", "dq2", "dq3")
-#: compliance values adapted on the way to a subject's body (the angles stay)
-#: the largest spectral radius of a subject's body gait (the stable bound of pdw-scale and
-#: of a cohort's subject bodies; a fit's own accepted radius is FitOptions.max_radius)
-BODY_MAX_RADIUS = 0.9
+#: the largest spectral radius of a subject's body gait per step (dimensionless; the stable
+#: bound of pdw-scale and of a cohort's subject bodies, which start their fits): the fit's
+#: NLP bound, one margin stricter than a fit's own verdict FitOptions.max_radius (0.90
+#: against 0.91; why they differ: pdw_casadi.gait.stability.RADIUS_BOUND)
+BODY_MAX_RADIUS = RADIUS_BOUND
 
+#: compliance values adapted on the way to a subject's body (the angles stay)
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
 
 
