@@ -325,12 +325,12 @@ def test_4_design_checks_its_output_before_designing(tmp_path, capsys, monkeypat
 
 
 def test_4_atlas_checks_its_output_and_curves_before_fitting(tmp_path, capsys, monkeypatch):
-    import pdw_casadi.fit.atlas as fit_atlas
+    import pdw_casadi.cli.atlas as cli_atlas
 
     def never(*a, **k):
         raise AssertionError("fitted before the checks")
 
-    monkeypatch.setattr(fit_atlas, "build_atlas", never)
+    monkeypatch.setattr(cli_atlas, "build_atlas", never)  # the name the command calls
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
     code, _, err = run(capsys, atlas_main, ["--out", str(blocker / "a.json")])

@@ -1,5 +1,6 @@
-"""The package's import graph: no cycle, none hidden behind a function-level import, and no
-module that switches the matplotlib backend when imported."""
+"""The package's import graph: no cycle, none hidden behind a function-level import, every
+function-level import saying why it is deferred, and no module that switches the matplotlib
+backend when imported."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from collections.abc import Iterator
 from pathlib import Path
 
 import pdw_casadi
@@ -120,8 +122,8 @@ def test_no_import_cycle_at_module_level():
 
 
 def test_no_function_level_import_hides_a_cycle():
-    # a function-level import is fine for start-up time (the CLI defers casadi), but if
-    # moving it to the top would close a cycle it only hides one
+    # a function-level import deferred on purpose (an optional dependency, a command's heavy
+    # part) is fine, but if moving it to the top would close a cycle it only hides one
     top, nested = import_graph(PACKAGE)
     cycle = find_cycle(_both(top, nested))
     assert cycle is None, "hidden import cycle: " + " -> ".join(cycle)
@@ -145,6 +147,96 @@ def test_the_graph_check_finds_cycles_it_should(tmp_path):
     assert top["pkg.a"] == {"pkg.sub.b"} and nested["pkg.sub.b"] == {"pkg.a"}
     assert find_cycle(top) is None  # the TYPE_CHECKING import is not an edge
     assert find_cycle(_both(top, nested)) == ["pkg.a", "pkg.sub.b", "pkg.a"]
+
+
+#: the comment that says why an import sits inside a function (docs/architecture.md)
+DEFERRED = "# deferred:"
+
+
+def _import_runs(body: list) -> Iterator[list]:
+    """The runs of import statements one after another in a list of statements."""
+    run: list = []
+    for stmt in [*body, None]:
+        if isinstance(stmt, ast.Import | ast.ImportFrom):
+            run.append(stmt)
+        elif run:
+            yield run
+            run = []
+
+
+def _undeclared(node: ast.AST, lines: list[str], in_function: bool = False):
+    """The import statements under ``node`` that run inside a function and do not say why."""
+    for _, value in ast.iter_fields(node):
+        if in_function and isinstance(value, list):
+            for run in _import_runs(value):
+                said = lines[max(run[0].lineno - 2, 0):run[-1].end_lineno]
+                if not any(DEFERRED in line for line in said):
+                    yield from run
+        for child in value if isinstance(value, list) else [value]:
+            if isinstance(child, ast.AST) and not (
+                    isinstance(child, ast.If) and _is_type_checking(child)):
+                yield from _undeclared(child, lines, in_function or isinstance(
+                    child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda))
+
+
+def undeclared_deferrals(root: Path) -> list[str]:
+    """Imports inside a function (outside ``if TYPE_CHECKING:``) that do not say why: no
+    ``# deferred:`` comment on their lines or on the line above (for a run of imports one
+    after another, the line above the run's first), as ``module: import``."""
+    bad = []
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_text()
+        module = _module_name(path, root)
+        bad += [f"{module}: {ast.unparse(n)}"
+                for n in _undeclared(ast.parse(text), text.splitlines())]
+    return bad
+
+
+def test_every_function_level_import_says_why_it_is_deferred():
+    # imports are at module level; one left in a function on purpose (an optional
+    # dependency, a command's heavy part kept out of its start-up) says why
+    bad = undeclared_deferrals(PACKAGE)
+    assert bad == [], "\n".join(bad)
+
+
+def test_the_deferral_check_finds_an_import_that_does_not_say_why(tmp_path):
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text(textwrap.dedent("""
+        import os
+        from typing import TYPE_CHECKING
+
+        if TYPE_CHECKING:
+            import json
+
+
+        def f():
+            # deferred: optional
+            import csv
+            import json
+
+            from os import path
+            return csv, json, path
+
+
+        def g():
+            try:
+                import sys  # deferred: optional
+            except ImportError:
+                return None
+            x = 1
+            import re
+            return re, sys, x, os
+
+
+        class C:
+            def h(self):
+                if TYPE_CHECKING:
+                    import typing
+                return lambda: __import__("os")
+    """))
+    assert undeclared_deferrals(pkg) == ["pkg.a: import re"]
 
 
 def test_importing_every_module_leaves_the_matplotlib_backend_alone():

@@ -27,6 +27,8 @@ import sys
 from collections.abc import Callable, Sequence
 from importlib import import_module
 
+from pdw_casadi.cli.contract import fail
+
 __all__ = ["COMMANDS", "USER_ERRORS", "cohort_main", "common_parser", "fit_main",
            "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main",
@@ -74,8 +76,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Dispatch ``python -m pdw_casadi.cli COMMAND [options]`` to a command's main."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] not in COMMANDS:
-        from pdw_casadi.cli.contract import fail
-
         fail(f"usage: python -m pdw_casadi.cli {{{','.join(COMMANDS)}}} [options]; "
              f"got {argv[0] if argv else 'no command'!r}")
     return COMMANDS[argv[0]](argv[1:])

@@ -15,7 +15,8 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.fit.atlas import RADII
+from pdw_casadi.fit.atlas import RADII, VARIANTS, build_atlas
+from pdw_casadi.fit.starts import atlas_path, load_atlas, save_atlas, warm_path
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
 
@@ -46,9 +47,6 @@ def atlas_main(argv=None) -> int:
     outputs = Outputs(Path("."))  # one file, staged beside it
 
     def body() -> int:
-        from pdw_casadi.fit.atlas import VARIANTS, build_atlas
-        from pdw_casadi.fit.starts import atlas_path, load_atlas, save_atlas, warm_path
-
         problem = load_problem(args.problem)
         check_curve_walker(problem, "pdw-atlas")
         curves = tuple(load_gait_curves(f) for f in args.curves)

@@ -22,7 +22,15 @@ from pdw_casadi.cli.contract import (
     run,
 )
 from pdw_casadi.fit.options import FitOptions
-from pdw_casadi.studies.cohort import BODIES, KINDS, CohortOptions
+from pdw_casadi.studies.cohort import (
+    BODIES,
+    KINDS,
+    CohortOptions,
+    plan_cohort,
+    read_bodies,
+    read_study,
+    run_cohort,
+)
 
 DEFAULTS = CohortOptions()
 FIT_DEFAULTS = FitOptions()
@@ -31,6 +39,7 @@ FIT_DEFAULTS = FitOptions()
 def _dask_slots(address: str) -> int | None:
     """Worker threads of the Dask cluster at ``address`` (None if it cannot say)."""
     try:
+        # deferred: dask.distributed is optional (pdw-casadi[dask]); only --scheduler needs it
         from distributed import Client
 
         with Client(address, timeout="5s", set_as_default=False) as client:
@@ -44,6 +53,7 @@ class Bar:
     left (tqdm's estimate from the fits finished in this run)."""
 
     def __init__(self, total: int, slots: int | None, quiet: bool, outputs: Outputs):
+        # deferred: tqdm, only when the command runs (fast --help)
         from tqdm import tqdm
 
         self.total, self.slots, self.outputs = total, slots, outputs
@@ -149,8 +159,6 @@ def cohort_main(argv: Sequence[str] | None = None) -> int:
     outputs = Outputs(args.out)
 
     def body() -> int:
-        from pdw_casadi.studies.cohort import plan_cohort, read_bodies, read_study
-
         bodies = None
         if args.bodies is not None:
             bodies = read_bodies(check_input_file(Path(args.bodies), "--bodies"))
@@ -178,8 +186,8 @@ def cohort_main(argv: Sequence[str] | None = None) -> int:
 
 def _run(plan, outputs: Outputs, workers: int, scheduler: str | None, slots, quiet: bool,
          left_out: list[str]) -> int:
+    # deferred: the cohort's figures, only when the command runs (fast --help)
     from pdw_casadi.report.cohort import plot_cohort
-    from pdw_casadi.studies.cohort import run_cohort
 
     # validated and locked: a second run into the same folder is refused. Each fit's record
     # is saved in place, atomically, as it ends (an interrupted study keeps its finished

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from pdw_casadi.cli.contract import (
     output_path,
 )
 from pdw_casadi.engine.errors import ProblemError
+from pdw_casadi.engine.jsonio import write_json
 from pdw_casadi.model.problem import (
     DEFAULT_PROBLEM,
     Problem,
@@ -24,6 +26,7 @@ from pdw_casadi.model.problem import (
     load_overrides,
     load_problem,
 )
+from pdw_casadi.model.system import gait_system
 
 #: the largest --steps of pdw-simulate (every step's trajectory is kept and written)
 MAX_STEPS = 1000
@@ -84,6 +87,7 @@ def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool =
     group; ``timing``: also ``--timing [W]``; ``title``: the group of the fit's flags
     (None: the parser's own options). :func:`fit_options` turns the parsed flags into the
     options. Returns the per-leg group (for a command's further per-leg flags)."""
+    # deferred: the fit stack, only for the commands that fit (pdw-fit, pdw-cohort)
     from pdw_casadi.fit.options import FitOptions
 
     d = defaults or FitOptions()
@@ -155,6 +159,7 @@ def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
     atlas): a :class:`~pdw_casadi.fit.FitOptions` (``per_leg``: with ``--side`` and
     ``--stride-start``; else the per-leg settings at their defaults), with ``extra``
     settings of the caller's (e.g. ``verbose``)."""
+    # deferred: the fit stack, only for the commands that fit (pdw-fit, pdw-cohort)
     from pdw_casadi.fit.options import FitOptions
 
     atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
@@ -235,6 +240,7 @@ def command_map(problem: Problem, stride: bool = False):
     """The periodic map a command works on: the stride (two steps, the parameters following
     the physical legs) with ``stride`` or when the legs differ, else the step map
     (:class:`~pdw_casadi.gait.poincare.PoincareMap`)."""
+    # deferred: the gait layer, only when a command needs it (all import this module)
     from pdw_casadi.gait.poincare import PoincareMap
     from pdw_casadi.gait.stride import period_steps
 
@@ -244,7 +250,7 @@ def command_map(problem: Problem, stride: bool = False):
 def write_summary(outputs: Outputs, out: Path, summary: dict, hs) -> Path:
     """Write ``summary.json`` into ``out`` with the units of its keys (of the walker ``hs``,
     :func:`~pdw_casadi.model.units.summary_units`); registered with ``outputs``."""
-    from pdw_casadi.engine.jsonio import write_json
+    # deferred: pandas (via model.units), only when a command needs it (all import this module)
     from pdw_casadi.model.units import summary_units
 
     summary["units"] = summary_units(summary, hs)
@@ -254,6 +260,7 @@ def write_summary(outputs: Outputs, out: Path, summary: dict, hs) -> Path:
 
 
 def gait_file(source: str, flag: str = "--gait"):
+    # deferred: pandas (via model.gait_data), only when a command needs it (all import this module)
     from pdw_casadi.model.gait_data import load_gait_curves
 
     return load_gait_curves(source)
@@ -261,6 +268,7 @@ def gait_file(source: str, flag: str = "--gait"):
 
 def check_curve_walker(problem: Problem, what: str):
     """The walker's faces; a clear error when it has no knee and hip outputs."""
+    # deferred: pandas (via model.faces), only when a command needs it (all import this module)
     from pdw_casadi.model.faces import walker_faces
 
     faces = walker_faces(problem)
@@ -292,7 +300,7 @@ def check_exports(args: argparse.Namespace, problem: Problem) -> None:
     """Before any output: the walker of ``problem`` can be written in every ``--export``
     format (a ProblemError otherwise)."""
     if "opensim" in args.export:
-        from pdw_casadi.model.system import gait_system
+        # deferred: the OpenSim export (report layer), imported only for --export opensim
         from pdw_casadi.report.opensim import skeleton
 
         skeleton(problem, gait_system(problem))
@@ -302,8 +310,6 @@ def write_exports(args: argparse.Namespace, outputs: Outputs, export) -> None:
     """Run ``export()`` (-> :class:`pdw_casadi.report.opensim.OpenSimExport`) when
     ``--export opensim`` was given and register its files; a gait the export cannot
     simulate (it falls within the two steps) is a warning, not an error."""
-    import sys
-
     if "opensim" not in args.export:
         return
     try:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import math
 import os
 import shutil
@@ -335,6 +336,7 @@ def _lock_directory(directory: Path, flag: str) -> int | None:
     when the descriptor closes, also when the process dies); UsageError when it is
     taken."""
     try:
+        # deferred: fcntl is POSIX only; without it (ImportError) no lock
         import fcntl
     except ImportError:  # not POSIX: the unique staging folder still keeps runs apart
         return None
@@ -396,12 +398,11 @@ def connect_scheduler(address: str, timeout: float = 5.0) -> None:
     raise :class:`UsageError` when dask.distributed is missing or the connection fails."""
     check_scheduler_address(address)
     try:
+        # deferred: dask.distributed is optional (pdw-casadi[dask]); only --scheduler needs it
         from distributed import Client
     except ImportError:
         raise UsageError("--scheduler needs dask.distributed: pip install "
                          "'pdw-casadi[dask]'") from None
-    import logging
-
     quiet = [logging.getLogger(n) for n in ("distributed", "distributed.client",
                                             "distributed.comm", "distributed.core")]
     levels = [lg.level for lg in quiet]

@@ -9,6 +9,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from pdw_casadi.cli.common import (
     check_curve_walker,
     check_exports,
@@ -49,8 +51,7 @@ def check_atlas_file(problem: Problem, path: Path, same_parameters: bool = True)
     """Raise :class:`UsageError` unless ``path`` reads as a gait atlas (of ``problem``'s
     parameters with ``same_parameters``): a malformed file fails before anything is
     written, not after the fit's first solves."""
-    import numpy as np
-
+    # deferred: the fit stack, only when the command runs (fast --help)
     from pdw_casadi.fit.starts import AtlasEntry
 
     check_input_file(path, "--atlas")
@@ -104,6 +105,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
+        # deferred: pandas (via model.gait_data), only when the command runs (fast --help)
         from pdw_casadi.model.gait_data import SideCurves, load_gait_file, load_side_curves
 
         if args.gait_right is not None:
@@ -127,6 +129,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
                              f"to fit; add --free-slope to fit the slope")
         outputs.check()
+        # deferred: the fit workflow and its report, only when the command runs (fast --help)
         from pdw_casadi.report.fit_report import write_fit_report
         from pdw_casadi.studies.fit_run import run_fit
 
@@ -164,6 +167,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
 def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     """pdw-fit with per-side curves: each leg fitted to its side on the stride
     (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
+    # deferred: the per-leg fit workflow and its report, only when the command runs (fast --help)
     from pdw_casadi.gait.stride import stride_map
     from pdw_casadi.report.fit_stride_report import write_fit_stride_report
     from pdw_casadi.studies.fit_run import run_fit
@@ -207,6 +211,7 @@ def _export_fit(args, outputs: Outputs, problem: Problem, summary: dict, out: Pa
     when no solve gave one)."""
     if "fixed_point" not in summary:
         return
+    # deferred: the OpenSim export (report layer), imported only for --export opensim
     from pdw_casadi.report.opensim import export_gait, fitted_problem
 
     def export():

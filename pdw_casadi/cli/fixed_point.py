@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from pdw_casadi.cli.common import (
     TOL_RANGE,
@@ -25,8 +26,12 @@ from pdw_casadi.cli.contract import (
     Parser,
     run,
 )
-from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
+from pdw_casadi.engine.compile import build_libraries
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
+from pdw_casadi.gait.poincare import sensitivity_libraries
+from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
+from pdw_casadi.model.faces import walker_faces
 
 
 def fixed_point_main(argv: Sequence[str] | None = None) -> int:
@@ -54,18 +59,13 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
 
     def body() -> int:
         problem = load_gait_problem(args, outputs)
-        from pdw_casadi.gait.fixed_point import find_fixed_point
-        from pdw_casadi.gait.simulate import Simulator
-        from pdw_casadi.model.faces import walker_faces
+        # deferred: matplotlib (report layer), only when the command runs (fast --help)
         from pdw_casadi.report.plots import plot_limit_cycle
 
         pmap = command_map(problem, args.stride)  # a stride: parameters follow the legs
         stride = pmap.steps > 1
         faces = None if stride else walker_faces(problem)
         out = outputs.create()
-        from pdw_casadi.engine.compile import build_libraries
-        from pdw_casadi.gait.poincare import sensitivity_libraries
-
         # a first run on this machine: the walker and its sensitivities, side by side
         build_libraries([*pmap.hs.libraries(), *sensitivity_libraries(pmap.hs)],
                         log=lambda m: print(m, file=sys.stderr, flush=True))
@@ -93,6 +93,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
                              faces=faces,
                              title=f"{problem.name}: limit cycle of one leg over two steps")
         if res.converged:
+            # deferred: the OpenSim export (report layer), imported only for --export opensim
             from pdw_casadi.report.opensim import export_gait
 
             write_exports(args, outputs, lambda: export_gait(
@@ -120,8 +121,7 @@ def _stride_outputs(smap, res, out: Path, outputs) -> dict:
     """Per-leg report of a stride fixed point for ``summary.json`` (``stride``; per leg its
     step, stance and swing and the timing of its own gait cycle) and the per-leg knee/hip
     curves in ``leg_curves.csv`` and ``leg_curves.png``."""
-    import pandas as pd
-
+    # deferred: the stride report and matplotlib, only when the command runs (fast --help)
     from pdw_casadi.gait.stride import stride_report, stride_timing
     from pdw_casadi.report.plots import plot_leg_curves
 

@@ -14,6 +14,7 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
+from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, ProblemError, load_problem
 from pdw_casadi.studies.scaling import (
     BODY_MAX_RADIUS,
@@ -79,8 +80,6 @@ def scale_main(argv=None) -> int:
               f"{who['sex']} ({args.body})...", file=sys.stderr)
         t0 = time.perf_counter()
         if args.body == "uniform":
-            from pdw_casadi.gait.fixed_point import find_fixed_point
-
             fp0 = find_fixed_point(ref)
             if not fp0.converged:
                 raise NoGait(f"no fixed point of {ref.name} near its initial state")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 import time
 
+from pdw_casadi.cli import COMMANDS, main
 from pdw_casadi.engine import interrupt
 
 #: when the console script's process began its work (s, time.perf_counter): what a verbose
@@ -21,10 +22,8 @@ def _script(command: str):
     def main(argv=None) -> None:
         STARTED[0] = time.perf_counter()
         interrupt.EXIT_AT_ONCE[0] = True
-        with interrupt.handling():  # from the start: the imports below take seconds
+        with interrupt.handling():  # from the start: the command's imports take seconds
             try:
-                from pdw_casadi.cli import COMMANDS
-
                 code = COMMANDS[command](argv)
             except KeyboardInterrupt as exc:  # before the command's own run() took over
                 print("interrupted: nothing written", file=sys.stderr, flush=True)
@@ -48,8 +47,6 @@ cohort = _script("cohort")
 
 def dispatch() -> None:
     """``python -m pdw_casadi.cli COMMAND [options]`` as a process."""
-    from pdw_casadi.cli import COMMANDS, main
-
     if len(sys.argv) < 2 or sys.argv[1] not in COMMANDS:
         sys.exit(main())  # the usage error
     _script(sys.argv[1])(sys.argv[2:])

@@ -7,6 +7,7 @@ import sys
 from collections.abc import Sequence
 
 import numpy as np
+import pandas as pd
 
 from pdw_casadi.cli.common import (
     MAX_SAMPLES,
@@ -28,7 +29,9 @@ from pdw_casadi.cli.contract import (
     run,
 )
 from pdw_casadi.gait.timing import simulation_timing, timing_or_none
+from pdw_casadi.model.faces import walker_faces
 from pdw_casadi.model.problem import Problem
+from pdw_casadi.model.units import with_units
 
 
 # --------------------------------------------------------------------------------------------
@@ -123,11 +126,10 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
         problem = load_gait_problem(args, outputs)
         if args.animate is not None:
             check_output_file(args.animate, "--animate", (".gif",))
+        # deferred: tqdm, the stride and matplotlib, only when the command runs (fast --help)
         from tqdm import tqdm
 
         from pdw_casadi.gait.stride import stride_simulator
-        from pdw_casadi.model.faces import walker_faces
-        from pdw_casadi.model.units import with_units
         from pdw_casadi.report.plots import plot_angles, plot_stick
 
         pmap = command_map(problem)  # legs that differ: parameters alternate with the stance leg
@@ -142,8 +144,6 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                              max_samples=MAX_SAMPLES, p_steps=p_steps)
         traj = result.trajectory
         if traj is None:
-            import pandas as pd
-
             traj = pd.DataFrame()
         with_units(traj, sim.hs).to_csv(outputs.wrote(out / "trajectory.csv"), index=False)
         with_units(result.events, sim.hs).to_csv(outputs.wrote(out / "events.csv"),
@@ -154,6 +154,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                     title=f"{problem.name}: joint angles", faces=faces)
         plot_stick(sim.hs, traj, p, outputs.wrote(out / "stick.png"), n=args.snapshots)
         if args.animate is not None and not traj.empty:
+            # deferred: the animation (report layer), imported only for --animate
             from pdw_casadi.report.animation import animate_walk
 
             animate_walk(sim.hs, result, p, outputs.wrote(outputs.staged(args.animate)),
@@ -162,6 +163,7 @@ def simulate_main(argv: Sequence[str] | None = None) -> int:
                                f"of {problem.slope:.4f} rad")
         diverged = _divergence(result)
         if not traj.empty and not diverged:  # a divergence has no motion worth exporting
+            # deferred: the OpenSim export (report layer), imported only for --export opensim
             from pdw_casadi.report.opensim import export_opensim
 
             write_exports(args, outputs, lambda: export_opensim(

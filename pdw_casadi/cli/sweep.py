@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from pdw_casadi.cli.common import (
     TOL_RANGE,
@@ -30,8 +31,11 @@ from pdw_casadi.cli.contract import (
 from pdw_casadi.cli.fit import load_fit_start
 from pdw_casadi.engine.errors import NoStartGait
 from pdw_casadi.engine.jsonio import write_json
-from pdw_casadi.gait.sweep import SweepSettings
+from pdw_casadi.gait.continuation import parameter_index
+from pdw_casadi.gait.sweep import SweepSettings, sweep
 from pdw_casadi.model.problem import check_bounds
+from pdw_casadi.model.system import gait_system
+from pdw_casadi.model.units import Units
 
 
 def sweep_main(argv: Sequence[str] | None = None) -> int:
@@ -84,10 +88,6 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     args, outputs = parse_command(parser, argv)
 
     def body() -> int:
-        import pandas as pd
-
-        from pdw_casadi.gait.continuation import parameter_index
-
         if args.start == args.stop:
             raise UsageError(f"--from and --to must differ, got {args.start:g} twice")
         if args.refit:
@@ -112,17 +112,16 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         outputs.check()
         if args.scheduler is not None:
             connect_scheduler(args.scheduler)  # the address answers before anything is written
+        # deferred: tqdm and matplotlib, only when the command runs (fast --help)
         from tqdm import tqdm
 
-        from pdw_casadi.gait.sweep import sweep
-        from pdw_casadi.model.system import gait_system
-        from pdw_casadi.model.units import Units
         from pdw_casadi.report.plots import plot_sweep
 
         units = Units(gait_system(problem))
 
         corrector = None
         if args.refit:
+            # deferred: the fit stack, imported only for --refit
             from pdw_casadi.fit import FitOptions, RefitCorrector
 
             corrector = RefitCorrector(problem, human, FitOptions(verbose=False, knee_floor=None))

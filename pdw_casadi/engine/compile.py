@@ -26,6 +26,7 @@ import tempfile
 import threading
 import zlib
 from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -232,7 +233,7 @@ def _machine_lock(so: Path):
     compiling it again. Without ``fcntl`` (not POSIX) or a lockable file: no lock (each
     process builds; the atomic replace keeps that safe, only slower)."""
     try:
-        import fcntl
+        import fcntl  # deferred: POSIX only; without it the build runs unlocked
         f = open(so.with_suffix(".lock"), "a")
     except (ImportError, OSError):
         yield
@@ -405,7 +406,6 @@ def build_libraries(items, workers: int | None = None, log=None) -> int:
     if missing and log is not None:
         log(f"compiling {missing} functions of the walker on {n} cores (once per machine; "
             f"cached in {cache_dir()})")
-    from concurrent.futures import ThreadPoolExecutor
 
     pool = ThreadPoolExecutor(n)
     try:

@@ -11,7 +11,9 @@ and a command that returns while one is pending is still an interrupted run.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
+import sys
 from collections.abc import Iterator
 
 #: the exit code of a run ended by each signal (128 + the signal's number, as shells do)
@@ -92,9 +94,6 @@ def exit_at_once(code: int) -> None:
     """End the process with ``code`` now when it is a console script (no teardown of the
     solvers and the interpreter: seconds on a loaded machine); return otherwise."""
     if EXIT_AT_ONCE[0]:
-        import os
-        import sys
-
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

@@ -103,6 +103,7 @@ def _ignore_sigint() -> None:
 
 
 def _dask_map(fn, items, scheduler: str, ordered: bool = True):
+    # deferred: Dask is optional (pdw-casadi[dask]); only a run with a scheduler needs it
     from dask.distributed import Client, as_completed
 
     with Client(scheduler, set_as_default=False) as client:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
+from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, validity_slacks
 from pdw_casadi.gait.poincare import PoincareError
 from pdw_casadi.model.margins import GUARD_AHEAD, spec_of
 
@@ -227,8 +227,6 @@ class _MarginHolds:
     margin that falls below its requirement is held at requirement + headroom x scale."""
 
     def __init__(self, pmap, x0, theta0, headroom: float, hold_guards: bool = False):
-        from pdw_casadi.gait.fixed_point import validity_slacks
-
         self.pmap, self.headroom = pmap, headroom
         specs = pmap.hs.margin_specs
         self._slacks = lambda m: {k: v for k, v in validity_slacks(m, pmap.problem,

@@ -26,9 +26,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from pdw_casadi.gait.curves import CURVES
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
 from pdw_casadi.gait.poincare import PoincareError, PoincareMap
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.timing import step_timing
 from pdw_casadi.model.gait_data import CYCLE_POINTS
 from pdw_casadi.model.problem import LEG_SIDES, Problem, load_problem
 from pdw_casadi.model.system import (  # noqa: F401 (the per-leg walker, re-exported)
@@ -124,8 +126,6 @@ def stride_timing(smap: PoincareMap, x, theta=None) -> dict:
     the stride from section state ``x``: ``{"left": GaitTiming, "right": GaitTiming}``
     (:mod:`pdw_casadi.gait.timing`; the cycle's speed is the stride length over its time).
     Raises :class:`~pdw_casadi.engine.errors.TimingError` for a walker that declares no timing."""
-    from pdw_casadi.gait.timing import step_timing
-
     r = smap.evaluate(x, theta, jacobian=False)
     steps = [step.sim.steps[0] for step in r.steps]
     fam = smap.problem.family
@@ -137,8 +137,6 @@ def stride_cycle(own: pd.DataFrame, other: pd.DataFrame, heel_strike_phase: str 
     """Knee, hip and thigh curves (deg) of the leg that is leg 1 in step ``own`` and leg 2
     in step ``other`` (the two recorded steps of a stride at its fixed point), over that
     leg's gait cycle from its heel strike to its next one, at 0..100 % (``n`` points)."""
-    from pdw_casadi.gait.curves import CURVES
-
     to = own["t"].to_numpy() - own["t"].iloc[0]
     tb = other["t"].to_numpy() - other["t"].iloc[0]
     Ta, Tb = to[-1], tb[-1]

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Segment, Simulator
 from pdw_casadi.model.hybrid import GUARD, SWITCH, HybridSystem
 from pdw_casadi.model.margins import GUARD_AHEAD, GUARD_ROUNDOFF
@@ -168,8 +169,6 @@ class ShootingNLP:
         :func:`~pdw_casadi.model.system.physical_parameter_names` (``free`` names from there, e.g.
         ``right.k_ankle``), step 1 with the left leg in stance, step 2 with the right, from
         section state ``x0`` (SI units)."""
-        from pdw_casadi.gait.poincare import PoincareMap
-
         smap = PoincareMap(problem, steps=2)
         if not smap.per_leg:
             raise ValueError(f"{problem.family}: no per-leg walker for a stride NLP")

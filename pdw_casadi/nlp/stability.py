@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
+from scipy.linalg import schur, solve_sylvester
 
 from pdw_casadi.engine.compile import HOT, LazyGroup, interpreted
 from pdw_casadi.engine.rk4 import rk4_sensitivities
@@ -128,8 +129,6 @@ def schur_radius(J: np.ndarray, q: int = RADIUS_NORM,
     enter as in :func:`smooth_radius`. Falls back to :func:`smooth_radius` for a matrix
     smaller than 3 x 3 or a pair not separated from the rest.
     """
-    from scipy.linalg import schur, solve_sylvester
-
     J = np.asarray(J, float)
     n = J.shape[0]
     lam = np.linalg.eigvals(J)

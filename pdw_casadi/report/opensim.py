@@ -37,14 +37,20 @@ from __future__ import annotations
 
 import math
 import re
+import subprocess
+import sys
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import escape
 
 import casadi as ca
 import numpy as np
+from matplotlib.figure import Figure
 
 from pdw_casadi.engine.errors import ProblemError
+from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.model.hybrid import HybridSystem
 
 __all__ = ["OpenSimExport", "WalkerSkeleton", "export_gait", "export_opensim", "fitted_problem",
@@ -668,11 +674,7 @@ def export_gait(problem, state, out_dir, parameters=None, steps: int = 2,
     ``parameters``: the parameter vector, default the problem's) and export them
     (:func:`export_opensim`). A walker whose legs differ runs on the stride map's
     per-leg walker (``parameters``: its physical parameters)."""
-    from pdw_casadi.gait.simulate import Simulator
-
     if problem.asymmetric:
-        from pdw_casadi.gait.stride import stride_map
-
         smap = stride_map(problem)
         theta = smap.default_parameters() if parameters is None else parameters
         sim, p_steps = Simulator(smap.problem, smap.hs), list(smap.step_parameters(theta))
@@ -698,10 +700,6 @@ def read_back(export: OpenSimExport, id_rows=None, python: str | None = None,
     (``python``: its interpreter, default this one), because OpenSim and CasADi cannot
     share a process (module docstring there). Returns its arrays by name.
     """
-    import subprocess
-    import sys
-    import tempfile
-
     smp = export.samples
     rows = np.arange(len(smp.time)) if id_rows is None else np.asarray(id_rows, int)
     with tempfile.TemporaryDirectory() as tmp:
@@ -727,8 +725,6 @@ def plot_opensim_frames(back: dict, path=None, n: int = 4, axis_length: float = 
     frames spread over the motion, each body frame's origin and its x (red) and y (green)
     axes (``axis_length`` m), the links between the markers and the walking surface.
     Saved to ``path`` when given; returns the figure."""
-    from matplotlib.figure import Figure
-
     frames, markers = back["body_frames"], back["marker_positions"]
     names = [str(m) for m in back["marker_names"]]
     chain = {s: [m for m in ("hip", f"knee_{s}", f"ankle_{s}", f"foot_{s}") if m in names]

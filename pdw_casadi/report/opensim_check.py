@@ -31,6 +31,7 @@ import numpy as np
 
 
 def _table(path: str):
+    # deferred: OpenSim is optional and cannot share a process with CasADi (module docstring)
     import opensim as osim
 
     t = osim.TimeSeriesTable(path)
@@ -43,6 +44,7 @@ def _table(path: str):
 
 def read_back(model_path: str, motion_path: str, loads_path: str, request: dict) -> dict:
     """OpenSim's view of an export (see the module docstring)."""
+    # deferred: OpenSim is optional and cannot share a process with CasADi (module docstring)
     import opensim as osim
 
     model = osim.Model(model_path)

@@ -23,7 +23,9 @@ import pandas as pd
 from matplotlib.cm import ScalarMappable
 from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
+from matplotlib.font_manager import FontProperties
 from matplotlib.lines import Line2D
+from matplotlib.textpath import text_to_path
 
 from pdw_casadi.model.faces import WalkerFaces, faces_from_trajectory
 
@@ -343,9 +345,6 @@ def _place_labels(ax, points, fontsize: float = 8.0) -> None:
     strike and toe-off are milliseconds apart, an impact keeps the angle): written at one
     fixed offset, their labels were printed on top of each other. Positions are read from
     the axes as laid out when this runs."""
-    from matplotlib.font_manager import FontProperties
-    from matplotlib.textpath import text_to_path
-
     fig = ax.figure
     scale = fig.dpi / 72.0
     prop = FontProperties(size=fontsize)

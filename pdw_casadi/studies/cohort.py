@@ -66,15 +66,22 @@ from pdw_casadi._version import __version__
 from pdw_casadi.engine.errors import GaitDataError, ProblemError, UsageError
 from pdw_casadi.engine.jsonio import jsonable
 from pdw_casadi.engine.parallel import map_tasks
-from pdw_casadi.fit import FitOptions, fit_gait
+from pdw_casadi.fit import FitOptions, check_targets, fit_gait
 from pdw_casadi.fit.core import fit_stride
 from pdw_casadi.fit.options import PER_LEG_FIELDS
+from pdw_casadi.fit.stride_fit import check_stride_targets
 from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
+from pdw_casadi.model.faces import walker_faces
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, load_problem, problem_from_dict
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
-from pdw_casadi.studies.scaling import BODY_MAX_RADIUS, problem_toml
+from pdw_casadi.studies.scaling import (
+    BODY_MAX_RADIUS,
+    check_scalable,
+    problem_toml,
+    stable_subject_walker,
+)
 
 #: kinds of fit: "symmetric" (one-step fit, one set of compliance) and "sides" (per-leg
 #: fit on the stride); a study selects with "auto" (each file as its header says),
@@ -452,8 +459,6 @@ def run_body_task(task: BodyTask) -> dict:
     """The subject's walker with a stable gait, as a JSON-ready record (``problem``: the
     problem as a dict, with the gait as its initial state; ``status`` "accepted" or
     "failed" with ``reason``)."""
-    from pdw_casadi.studies.scaling import stable_subject_walker
-
     t0 = time.perf_counter()
     rec = {"subject_id": task.subject_id, "fingerprint": task.fingerprint(),
            "mass_kg": task.mass_kg, "height_m": task.height_m, "sex": task.sex}
@@ -709,10 +714,6 @@ class CohortPlan:
 def check_walker(reference: Problem, entries: Sequence[StudyEntry], options: CohortOptions
                  ) -> None:
     """Raise :class:`UsageError` when the walker cannot run the study's fits."""
-    from pdw_casadi.fit import check_targets
-    from pdw_casadi.fit.stride_fit import check_stride_targets
-    from pdw_casadi.model.faces import walker_faces
-
     if reference.asymmetric:
         raise UsageError(f"{reference.name}: a cohort starts from a walker whose legs are "
                          f"alike")
@@ -742,8 +743,6 @@ def check_walker(reference: Problem, entries: Sequence[StudyEntry], options: Coh
         except ValueError as exc:
             raise UsageError(f"{Path(e.gait_file).name}: {exc}") from None
     if options.body == "own" and any(e.has_body for e in entries):
-        from pdw_casadi.studies.scaling import check_scalable
-
         try:
             check_scalable(reference)
         except ProblemError as exc:
@@ -917,6 +916,7 @@ def write_table(table: pd.DataFrame, out: Path) -> list[Path]:
     paths = [out / "cohort.csv"]
     write_atomic(paths[0], table.to_csv(index=False))
     with contextlib.suppress(ImportError):
+        # deferred: pyarrow is optional (not a dependency); without it no parquet file
         import pyarrow  # noqa: F401
 
         tmp = out / ".cohort.parquet.tmp"

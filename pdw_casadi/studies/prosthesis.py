@@ -34,6 +34,7 @@ symmetry tolerance), what caps it and the shipped designs
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Sequence
@@ -42,6 +43,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from pdw_casadi.engine import interrupt
+from pdw_casadi.engine.resources import bundled_dir
 from pdw_casadi.gait.design import (
     DesignOptions,
     combined,
@@ -60,8 +63,10 @@ from pdw_casadi.gait.stride import (
     stride_report,
     with_physical_parameters,
 )
-from pdw_casadi.model.problem import Problem, ProblemError
-from pdw_casadi.nlp.driver import IPOPT_TOL
+from pdw_casadi.model.problem import Problem, ProblemError, load_problem
+from pdw_casadi.nlp.driver import IPOPT_TOL, Progress, ipopt_settings, nlp_functions, succeeded
+from pdw_casadi.nlp.shooting import ShootingNLP
+from pdw_casadi.nlp.stability import StabilityRow
 
 #: the prosthetic leg's compliance left free by default (the angles stay)
 FREE = ("k_ankle", "c_ankle", "k_knee", "c_knee_flex", "c_knee_ext", "c_knee_stance")
@@ -179,11 +184,6 @@ START_ENTRY = "humanlike_6link-own-rho0.86"
 def atlas_problem(label: str = START_ENTRY) -> Problem:
     """The 6-link problem at the compliance and section state of a bundled atlas entry
     (data/atlas/humanlike_6link.json, :mod:`pdw_casadi.fit.atlas`), by its label."""
-    import json
-
-    from pdw_casadi.engine.resources import bundled_dir
-    from pdw_casadi.model.problem import load_problem
-
     atlas = json.loads((bundled_dir("data") / "atlas" / "humanlike_6link.json").read_text())
     entry = next((e for e in atlas["entries"] if e["label"] == label), None)
     if entry is None:
@@ -323,9 +323,6 @@ class ProsthesisDesignSolver:
 
     def __init__(self, nlp, free: Sequence[str], sound: dict, opts: DesignNLPOptions,
                  pinned: dict | None = None, log=print, bounds: dict | None = None):
-        from pdw_casadi.nlp.driver import nlp_functions
-        from pdw_casadi.nlp.stability import StabilityRow
-
         self.nlp, self.opts, self.log = nlp, opts, log
         obj = 0
         for name in free:
@@ -358,9 +355,6 @@ class ProsthesisDesignSolver:
 
     def solve(self, w0) -> dict:
         """Solve from ``w0``: the answer ``w``, IPOPT status, iterations, wall time (s)."""
-        from pdw_casadi.engine import interrupt
-        from pdw_casadi.nlp.driver import Progress, ipopt_settings, succeeded
-
         opts = self.opts
         ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, opts.ipopt)
         progress = Progress(self.n_w, self.lbg.size, self.lbg, self.ubg, self.lbx, self.ubx,
@@ -469,8 +463,6 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     ``reached``: every homotopy step solved and the
     final answer re-simulates as a stable (stride radius <= ``max_stride_radius``), valid
     gait with both asymmetries below ``symmetry_verdict_pct``."""
-    from pdw_casadi.nlp.shooting import ShootingNLP
-
     t0 = time.perf_counter()
     opts = options or DesignNLPOptions()
     opts.check_symmetry_tol()

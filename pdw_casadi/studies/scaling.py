@@ -32,11 +32,28 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
+from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.fit import FitOptions, fit_gait
+from pdw_casadi.fit.starts import load_atlas
+from pdw_casadi.gait.curves import cycle_curves
+from pdw_casadi.gait.design import DesignOptions, continue_design, phase_time_conditions
+from pdw_casadi.gait.fixed_point import find_fixed_point
+from pdw_casadi.gait.poincare import PoincareMap
+from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.stability import RADIUS_BOUND
+from pdw_casadi.model.gait_data import GaitCurves
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, ProblemError, load_problem
+from pdw_casadi.model.system import (
+    per_leg_system,
+    physical_parameter_names,
+    physical_parameter_vector,
+    with_physical_parameters,
+)
 
 #: de Leva (1996), Table 4: reference stature (m), body mass (kg) and per segment
 #: (length m, mass fraction, COM fraction from the proximal end, sagittal radius of
@@ -232,16 +249,6 @@ def walker_for_subject(mass_kg: float, height_m: float, sex: str = "female",
        lasts a few ms; where it vanishes the trailing toe never lifts and the gait is
        lost).
     """
-    from pdw_casadi.gait.design import DesignOptions, continue_design, phase_time_conditions
-    from pdw_casadi.gait.fixed_point import find_fixed_point
-    from pdw_casadi.gait.poincare import PoincareMap
-    from pdw_casadi.gait.stride import (
-        per_leg_system,
-        physical_parameter_names,
-        physical_parameter_vector,
-        with_physical_parameters,
-    )
-
     t0 = time.perf_counter()
     opts = options or DesignOptions(hold_margins=True)
     tol = opts.tol
@@ -284,8 +291,6 @@ def reference_gaits(reference: Problem) -> list[tuple[str, Problem]]:
     """The reference walker's gaits a subject's walker may start from: its own, then the
     stable gaits of its bundled atlas (:mod:`pdw_casadi.fit.starts`), most stable first,
     as (label, problem at that gait's compliance and state)."""
-    from pdw_casadi.fit.starts import load_atlas
-
     entries = sorted(load_atlas(reference), key=lambda e: e.spectral_radius)
     return [("own", reference)] + [
         (e.label, reference.with_parameters(e.parameters).with_state(e.state))
@@ -301,8 +306,6 @@ def subject_walker(mass_kg: float, height_m: float, sex: str = "female",
     stable first) before the reference's own (the paper's Table 3 gait sits next to a fold;
     for 62.45 kg, 1.695 m its continuation stops at lambda 0.578 after 94 s, the atlas's
     rho 0.86 gait gets there in 62 s, 2 shared cores)."""
-    from pdw_casadi.gait.fixed_point import find_fixed_point
-
     ref = reference or load_problem(DEFAULT_PROBLEM)
     best = None
     t0 = time.perf_counter()
@@ -337,8 +340,6 @@ def check_scalable(problem: Problem) -> None:
     """Raise :class:`ProblemError` unless ``problem``'s walker can be scaled to a subject:
     the 6-link body (:data:`SCALED_BODY`), both legs alike, a per-leg walker (the body as a
     runtime parameter of the continuation)."""
-    from pdw_casadi.model.system import per_leg_system
-
     missing = [k for k in SCALED_BODY if k not in problem.anthropometry]
     if missing:
         raise ProblemError(f"{problem.name} ({problem.family}) cannot be scaled to a subject: "
@@ -354,14 +355,6 @@ def check_scalable(problem: Problem) -> None:
 def own_curves(problem: Problem, x, p):
     """The gait-cycle curves of ``problem``'s gait through ``x`` at parameters ``p`` as a
     target (:class:`~pdw_casadi.model.gait_data.GaitCurves`), or None when the step fails."""
-    from pathlib import Path
-
-    import pandas as pd
-
-    from pdw_casadi.gait.curves import cycle_curves
-    from pdw_casadi.gait.simulate import Simulator
-    from pdw_casadi.model.gait_data import GaitCurves
-
     c = cycle_curves(Simulator(problem), x, p)
     if c is None:
         return None
@@ -409,9 +402,6 @@ def nearest_stable_gait(problem: Problem, max_radius: float = BODY_MAX_RADIUS, o
     (:func:`~pdw_casadi.fit.fit_gait`, its stability row) with the walker's own curves as
     the target, from that gait, compliance free. Returns the fit's best
     :class:`~pdw_casadi.fit.Candidate` (None when it found none)."""
-    from pdw_casadi.fit import FitOptions, fit_gait
-    from pdw_casadi.gait.fixed_point import find_fixed_point
-
     fp = find_fixed_point(problem, fallback=False)
     if not fp.converged:
         raise ProblemError(f"{problem.name}: no fixed point near its initial state")
@@ -429,8 +419,6 @@ SHIPPED_BODY_REFERENCE = "humanlike_6link"
 
 def shipped_body(sex: str) -> Problem | None:
     """The shipped stable gait on de Leva's body of ``sex`` (data/bodies), or None."""
-    from pdw_casadi.engine.resources import bundled_dir
-
     path = bundled_dir("data") / "bodies" / f"deleva_{sex}.toml"
     return load_problem(path) if path.is_file() else None
 
@@ -444,8 +432,6 @@ def scaled_shipped_body(mass_kg: float, height_m: float, sex: str, reference: Pr
     with the same spectral radius. None when no body of that sex is shipped, the reference
     is not the walker it was built from (same family and name, same compliance keys), or
     the scaled gait is not a stable (rho <= ``max_radius``), valid fixed point."""
-    from pdw_casadi.gait.fixed_point import find_fixed_point
-
     body = shipped_body(sex)
     if body is None or reference.name != SHIPPED_BODY_REFERENCE or \
             reference.family != body.family or \
@@ -556,10 +542,6 @@ SUBJECTS_FILE = "anthropometry/subjects.csv"
 def subject_row(subject_id: str) -> dict:
     """Mass (kg), height (m) and sex of a bundled subject (data/anthropometry/subjects.csv,
     WBDS metadata)."""
-    import pandas as pd
-
-    from pdw_casadi.engine.resources import bundled_dir
-
     path = bundled_dir("data") / SUBJECTS_FILE
     table = pd.read_csv(path)
     missing = [c for c in ("subject_id", "mass_kg", "height_m", "sex") if c not in table]
