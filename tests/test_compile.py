@@ -150,3 +150,41 @@ def test_a_library_found_by_signature_is_checked_by_its_values(tmp_path, monkeyp
     assert len(hashed) == 2  # same signature, other values: hashed, its own library
     assert np.allclose(np.asarray(other(pt)).ravel(), [3.0 * np.sin(0.4), 1.5 ** 2 / 3.0])
     assert len(list(tmp_path.glob("leg_*.so"))) == 2
+
+
+def test_an_undefined_output_beside_defined_ones_is_still_found_by_signature(tmp_path,
+                                                                           monkeypatch):
+    """A function with one output undefined (NaN) at the probe point, as an adjoint's seed
+    of a guard at a random state, is still recognised by the values of its other outputs
+    (no serialization hashed); one whose every output is NaN proves nothing and is hashed.
+    The key used last comes first in its signature's index, so a process of one walker
+    probes one library."""
+    import casadi as ca
+
+    from pdw_casadi.engine import compile as comp
+
+    monkeypatch.setenv("PDW_CACHE", str(tmp_path))
+    hashed = []
+    full = comp._full_key
+    monkeypatch.setattr(comp, "_full_key", lambda f, fl: hashed.append(1) or full(f, fl))
+
+    def guard(mass, defined=True):
+        x = ca.SX.sym("x", 2)
+        nan = ca.sqrt(-1 - x[0] ** 2)  # NaN for every real x
+        return ca.Function("guard", [x], [ca.vertcat(mass * x[0], x[1] / mass) if defined
+                                          else nan * mass, nan])
+
+    comp.compiled(guard(2.0), comp.PLAIN)
+    comp.compiled(guard(3.0), comp.PLAIN)
+    assert len(hashed) == 2
+    index = tmp_path / "keys" / comp._signature([guard(2.0)], comp.PLAIN)
+    second_first = index.read_text().split()
+    comp._KEYS.clear()  # as a new process
+    comp.compiled(guard(2.0), comp.PLAIN)
+    assert len(hashed) == 2  # found by its finite output, not hashed
+    assert index.read_text().split() == second_first[::-1]  # the one used last first
+    comp._KEYS.clear()
+    comp.compiled(guard(2.0, defined=False), comp.PLAIN)
+    comp._KEYS.clear()
+    comp.compiled(guard(2.0, defined=False), comp.PLAIN)
+    assert len(hashed) == 4  # all NaN: nothing proven, hashed each time

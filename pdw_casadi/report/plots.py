@@ -417,6 +417,7 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str 
     n_seg = len(legs[0])
     segments = faces.leg_segments if len(faces.leg_segments) == n_seg else \
         tuple(f"segment {i + 1}" for i in range(n_seg))
+    own_figure = ax is None
     fig, axes = _axes(ax, 1, n_seg, (5 * n_seg + 3.5, 4.6))
     colors = ("tab:blue", "tab:orange")
     steps = _run_steps(trajectory)
@@ -455,6 +456,10 @@ def plot_limit_cycle(trajectory: pd.DataFrame, path=None, legs=None, title: str 
     fig.draw_without_rendering()
     for ax, points in zip(axes, labels, strict=True):
         _place_labels(ax, points)
+    if own_figure:
+        # the labels' places hold for this layout: keep it (a second constrained-layout
+        # pass on saving would cost as much as the first and could move the axes)
+        fig.set_layout_engine("none")
     return _save(fig, path, 120)
 
 
