@@ -12,19 +12,23 @@ asymmetry, the stride's spectral radius, validity, the compliance found and the 
 ``--out FILE.toml`` writes the designed walker as a problem file (``pdw-fixed-point
 --problem FILE.toml`` re-solves it on the stride map).
 
+The command parses and checks its arguments, runs the design workflow
+(:func:`pdw_casadi.studies.design_run.run_design`) and prints and writes its result through
+:mod:`pdw_casadi.report.design_report`.
+
     pdw-design --lighter 0.3
 """
 
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 from pdw_casadi.cli.contract import (
     NoGait,
     Outputs,
     Parser,
+    ProblemError,
     check_input_file,
     check_output_file,
     finite_float,
@@ -34,8 +38,19 @@ from pdw_casadi.cli.contract import (
     positive_float,
     run,
 )
-from pdw_casadi.engine.errors import ProblemError
-from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.problem import Problem, load_problem
+from pdw_casadi.report.design_report import (
+    design_gait_lines,
+    design_headline,
+    write_designed_walker,
+)
+from pdw_casadi.studies.design_run import (
+    METHODS,
+    DesignRequest,
+    check_compliance_keys,
+    check_mass_distribution,
+    run_design,
+)
 from pdw_casadi.studies.prosthesis import (
     NLP_FREE,
     START_ENTRY,
@@ -43,23 +58,22 @@ from pdw_casadi.studies.prosthesis import (
     atlas_problem,
     design_prosthesis,
     design_prosthesis_nlp,
-    lighter_mass,
 )
-from pdw_casadi.studies.scaling import problem_toml
 
 #: the design's settings (pdw-design passes only what its flags change)
 DEFAULTS = DesignNLPOptions()
 
 
-def design_main(argv=None) -> int:
-    """``pdw-design``: the prosthetic leg's design (module docstring); the contract of
-    :mod:`pdw_casadi.cli.contract`: everything checked before the solves, one-line errors."""
+def design_parser() -> Parser:
+    """The parser of ``pdw-design``: the target (``--lighter``, a fraction), the start
+    (``--entry``, ``--start``, ``--family`` with ``--extension`` in SI units), the method
+    and the NLP design's settings (defaults: :class:`DesignNLPOptions`), ``--out``."""
     ap = Parser(prog="pdw-design", description=__doc__.splitlines()[0])
     ap.add_argument("--lighter", type=open_interval("--lighter", 0.0, 1.0), default=0.3,
                     help="fraction by which the right shank and foot are lighter")
     ap.add_argument("--entry", default=START_ENTRY,
                     help="label of the atlas entry to start from (default: %(default)s)")
-    ap.add_argument("--method", choices=("nlp", "continuation"), default="nlp",
+    ap.add_argument("--method", choices=METHODS, default="nlp",
                     help="stride NLP with the stability row (default) or the min-norm "
                          "Newton continuation")
     ap.add_argument("--first-step", type=open_interval("--first-step", 0.0, 1.0),
@@ -123,6 +137,13 @@ def design_main(argv=None) -> int:
                     help="NLP: accept a solve that stopped at the iteration limit when its "
                          "answer re-simulates as stable, valid and symmetric (below "
                          f"{DEFAULTS.symmetry_verdict_pct:g} %%)")
+    return ap
+
+
+def design_main(argv=None) -> int:
+    """``pdw-design``: the prosthetic leg's design (module docstring); the contract of
+    :mod:`pdw_casadi.cli.contract`: everything checked before the solves, one-line errors."""
+    ap = design_parser()
     args = ap.parse_args(argv)
     outputs = Outputs(args.out or Path("."))  # only --out FILE.toml, staged beside it
 
@@ -131,125 +152,99 @@ def design_main(argv=None) -> int:
             check_output_file(args.out, "--out", (".toml",))
         if args.start:
             check_input_file(Path(args.start), "--start")
-        base = load_problem(args.start) if args.start else atlas_problem(args.entry)
-        if args.family:
-            extra = {}
-            for item in (i for i in args.extension.split(",") if i):
-                key, _, val = item.partition("=")
-                try:
-                    extra[key] = finite_float("--extension")(val)
-                except argparse.ArgumentTypeError:
-                    ap.error(f"--extension: {item!r} is not KEY=VALUE with a number (finite)")
-            try:
-                base = base.in_family(args.family, extra)
-            except (ProblemError, KeyError) as exc:
-                ap.error(f"--family {args.family}: {exc}")
-        elif args.extension:
-            ap.error("--extension needs --family")
-        free = tuple(k for k in args.free.split(",") if k)
-        unknown = [k for k in free if k not in base.compliance]
-        if unknown or not free:
-            ap.error(f"--free: {', '.join(unknown) or 'no key given'}; the {base.family} "
-                     f"walker's compliance keys: {', '.join(base.compliance)}")
-        free_sound = tuple(k for k in args.free_sound.split(",") if k)
-        unknown = [k for k in free_sound if k not in base.compliance]
-        if unknown:
-            ap.error(f"--free-sound: {', '.join(unknown)}; the {base.family} walker's "
-                     f"compliance keys: {', '.join(base.compliance)}")
-        t0 = time.perf_counter()
-        dist = tuple(k for k in args.mass_distribution.split(",") if k)
-        bounds = dict(DesignNLPOptions().mass_distribution_bounds)
-        unknown = [k for k in dist if k not in bounds]
-        if unknown:
-            ap.error(f"--mass-distribution: {', '.join(unknown)} not among {', '.join(bounds)}")
-        for item in (i for i in args.mass_bounds.split(",") if i):
-            key, _, rng = item.partition("=")
-            if key not in dist or rng.count(":") != 1:
-                ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among the "
-                         f"--mass-distribution keys ({', '.join(dist) or 'none given'})")
-            try:
-                lo, hi = (finite_float("--mass-bounds")(v) for v in rng.split(":"))
-            except argparse.ArgumentTypeError:
-                ap.error(f"--mass-bounds: {item!r}: LO and HI must be finite numbers")
-            if not 0.0 < lo < hi:
-                ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
-            bounds[key] = (lo, hi)
-        # the verdict asks for asymmetries below symmetry_verdict_pct: the NLP's tolerance
-        # must lie inside it
-        try:
-            DesignNLPOptions(symmetry_tol_pct=args.symmetry_tol).check_symmetry_tol()
-        except ProblemError as exc:
-            ap.error(f"--symmetry-tol: {exc}")
-        nlp_only = [flag for flag, given in (
-            ("--start", args.start), ("--diagnose", args.diagnose),
-            ("--mass-distribution", dist), ("--free-slope", args.free_slope),
-            ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
-            ("--free", free != NLP_FREE), ("--free-sound", free_sound),
-            ("--accept-verified", args.accept_verified))
-            if given]
-        if args.method == "continuation" and nlp_only:
-            ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
-        if args.method == "nlp":
-            res = design_prosthesis_nlp(base, lighter=args.lighter, free=free,
-                                        options=DesignNLPOptions(first_step=args.first_step,
-                                                                diagnose=args.diagnose,
-                                                                max_iter=args.max_iter,
-                                                                mass_distribution=dist,
-                                                                mass_distribution_bounds=bounds,
-                                                                free_slope=args.free_slope,
-                                                                free_sound=free_sound,
-                                                                accept_verified=args.accept_verified,
-                                                                t_min_s=args.t_min,
-                                                                symmetry_tol_pct=args.symmetry_tol,
-                                                                max_step=args.max_step,
-                                                                max_solves=args.max_solves))
-            reached = f"{100 * res.path[-1][0]:.2f} % lighter in {len(res.solves)} NLP solves"
-        else:
-            res = design_prosthesis(base, lighter=args.lighter, hold_first_phase=not args.no_hold)
-            reached = f"lambda = {res.path[-1][0]:.4f} ({len(res.path)} points)"
-        took = time.perf_counter() - t0
-        rep, fp = res.report, res.fixed_point
-        where = args.start or f"atlas entry {args.entry}"
-        print(f"start: {where}; target: right shank+foot {100 * args.lighter:g} % "
-              f"lighter; method {args.method}")
-        print(f"reached {reached}: right shank+foot {100 * (1 - lighter_mass(res.problem)):.2f} % "
-              f"lighter; target met (stable, valid, symmetric): {res.reached}")
-        if rep is None:
+        start = _start_walker(ap, args)
+        request = _design_request(ap, args, start)
+        # the designs by the names this module holds: a test stands in for a solve there
+        design = run_design(start, request, nlp=design_prosthesis_nlp,
+                            continuation=design_prosthesis)
+        print("\n".join(design_headline(design, args.start or f"atlas entry {args.entry}")))
+        if not design.has_gait:
             raise NoGait("no stride fixed point of the simulator at the last answer")
-        legs = rep["legs"]
-        print(f"step length L/R {legs['left']['step_length_m']:.5f} / "
-              f"{legs['right']['step_length_m']:.5f} m (asymmetry "
-              f"{rep['step_length_asymmetry_pct']:.2e} %)")
-        print(f"step time   L/R {legs['left']['step_time_s']:.5f} / "
-              f"{legs['right']['step_time_s']:.5f} s "
-              f"(asymmetry {rep['step_time_asymmetry_pct']:.2e} %)")
-        print(f"stance % L/R {legs['left']['stance_pct']:.2f} / {legs['right']['stance_pct']:.2f}, "
-              f"double support {rep['double_support_pct']:.2f} %")
-        print(f"stride spectral radius {fp.spectral_radius:.4f} (per step {res.step_radius:.4f}); "
-              f"stable (stride <= {DEFAULTS.max_stride_radius:g}, per step <= "
-              f"{DEFAULTS.max_step_radius:g}): {fp.spectral_radius <= DEFAULTS.max_stride_radius}; "
-              f"valid: {fp.valid}")
-        print("prosthetic-leg compliance:", ", ".join(f"{k} = {v:.4f}"
-                                                     for k, v in res.compliance.items()))
-        if res.sound_compliance:
-            print("sound-leg compliance (adapted):", ", ".join(
-                f"{k} = {v:.4f}" for k, v in res.sound_compliance.items()))
-        if res.mass_distribution:
-            print("prosthetic-leg mass distribution:", ", ".join(
-                f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
-        print(f"slope {res.problem.slope:.5f} rad")
-        for sv in res.solves:
-            print(f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
-                  f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}, "
-                  f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
-                  f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "
-                  f"{'accepted' if sv.accepted else 'rejected'}")
-        print(f"wall time {took:.1f} s")
+        print("\n".join(design_gait_lines(design)))
         if args.out:
-            outputs.wrote(outputs.staged(args.out)).write_text(
-                problem_toml(res.problem, "# written by pdw-design\n"))
+            write_designed_walker(design, outputs.wrote(outputs.staged(args.out)))
             print(f"wrote {args.out}")
         return 0
 
-
     return run(outputs, body)
+
+
+def _start_walker(ap: Parser, args: argparse.Namespace) -> Problem:
+    """The walker the design starts from: ``--start`` or the atlas entry ``--entry``,
+    carried into ``--family`` with the ``--extension`` values (SI units) when given."""
+    start = load_problem(args.start) if args.start else atlas_problem(args.entry)
+    if not args.family:
+        if args.extension:
+            ap.error("--extension needs --family")
+        return start
+    extra = {}
+    for item in (i for i in args.extension.split(",") if i):
+        key, _, val = item.partition("=")
+        try:
+            extra[key] = finite_float("--extension")(val)
+        except argparse.ArgumentTypeError:
+            ap.error(f"--extension: {item!r} is not KEY=VALUE with a number (finite)")
+    try:
+        return start.in_family(args.family, extra)
+    except (ProblemError, KeyError) as exc:
+        ap.error(f"--family {args.family}: {exc}")
+
+
+def _mass_bounds(ap: Parser, args: argparse.Namespace, dist: tuple[str, ...]) -> dict:
+    """The bounds of the designed mass distribution (multiples of the sound leg's values,
+    -): the defaults with ``--mass-bounds`` KEY=LO:HI applied."""
+    bounds = dict(DesignNLPOptions().mass_distribution_bounds)
+    for item in (i for i in args.mass_bounds.split(",") if i):
+        key, _, rng = item.partition("=")
+        if key not in dist or rng.count(":") != 1:
+            ap.error(f"--mass-bounds: {item!r} is not KEY=LO:HI with KEY among the "
+                     f"--mass-distribution keys ({', '.join(dist) or 'none given'})")
+        try:
+            lo, hi = (finite_float("--mass-bounds")(v) for v in rng.split(":"))
+        except argparse.ArgumentTypeError:
+            ap.error(f"--mass-bounds: {item!r}: LO and HI must be finite numbers")
+        if not 0.0 < lo < hi:
+            ap.error(f"--mass-bounds: {item!r} needs 0 < LO < HI")
+        bounds[key] = (lo, hi)
+    return bounds
+
+
+def _design_request(ap: Parser, args: argparse.Namespace, start: Problem) -> DesignRequest:
+    """The design the flags ask for, every rule checked (by the workflow that owns it)
+    before any solve; a broken one is a one-line usage error naming its flag."""
+    free = tuple(k for k in args.free.split(",") if k)
+    free_sound = tuple(k for k in args.free_sound.split(",") if k)
+    dist = tuple(k for k in args.mass_distribution.split(",") if k)
+    for flag, keys, required in (("--free", free, True), ("--free-sound", free_sound, False)):
+        try:
+            check_compliance_keys(start, keys, required)
+        except ProblemError as exc:
+            ap.error(f"{flag}: {exc}")
+    try:
+        check_mass_distribution(dist)
+    except ProblemError as exc:
+        ap.error(f"--mass-distribution: {exc}")
+    bounds = _mass_bounds(ap, args, dist)
+    # the verdict asks for asymmetries below symmetry_verdict_pct: the NLP's tolerance
+    # must lie inside it
+    try:
+        DesignNLPOptions(symmetry_tol_pct=args.symmetry_tol).check_symmetry_tol()
+    except ProblemError as exc:
+        ap.error(f"--symmetry-tol: {exc}")
+    nlp_only = [flag for flag, given in (
+        ("--start", args.start), ("--diagnose", args.diagnose),
+        ("--mass-distribution", dist), ("--free-slope", args.free_slope),
+        ("--symmetry-tol", args.symmetry_tol != DesignNLPOptions.symmetry_tol_pct),
+        ("--free", free != NLP_FREE), ("--free-sound", free_sound),
+        ("--accept-verified", args.accept_verified))
+        if given]
+    if args.method == "continuation" and nlp_only:
+        ap.error(f"{', '.join(nlp_only)}: options of --method nlp only")
+    options = DesignNLPOptions(first_step=args.first_step, diagnose=args.diagnose,
+                               max_iter=args.max_iter, mass_distribution=dist,
+                               mass_distribution_bounds=bounds, free_slope=args.free_slope,
+                               free_sound=free_sound, accept_verified=args.accept_verified,
+                               t_min_s=args.t_min, symmetry_tol_pct=args.symmetry_tol,
+                               max_step=args.max_step, max_solves=args.max_solves)
+    return DesignRequest(lighter=args.lighter, method=args.method, free=free,
+                         hold_first_phase=not args.no_hold, options=options)
