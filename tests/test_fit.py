@@ -238,6 +238,31 @@ def test_a_stall_is_a_flat_objective_with_an_infeasibility_that_does_not_fall():
     assert not rule.stalled(_iterates(flat, converging))
 
 
+def test_a_zigzag_across_the_bound_stalls_and_a_feasible_tail_does_not():
+    """The second stall form (FitOptions.stall_plateau_infeasibility): iterates crossing
+    the stability bound back and forth (infeasibility 1e-5..8e-2, the infeasible ones a
+    little lower in objective, as one corpus file did for 100 iterations) with the best
+    nearly feasible objective flat stall, although the objective's spread hides it from
+    the first form; the same best objective still falling, a converging tail feasible
+    throughout, and the rule switched off do not."""
+    from pdw_casadi.nlp.driver import Stall
+
+    rule = Stall(window=10, rtol=1e-3, min_infeasibility=1e-5, plateau_infeasibility=1e-4,
+                 wander=1e-3)
+    rng = np.random.default_rng(1)
+    inf = np.where(np.arange(40) % 3 == 0, 10 ** rng.uniform(-6, -5, 40),
+                   10 ** rng.uniform(-3, -1.1, 40))
+    f = 0.2033 - 0.05 * inf  # an infeasible iterate looks better, by up to 4e-3
+    assert not rule.wandering(_iterates(f, inf))
+    assert rule.stalled(_iterates(f, inf))
+    falling = f - 2e-3 * np.arange(40) / 40  # the best improves 2.5e-3 of itself per window
+    assert not rule.stalled(_iterates(falling, inf))
+    tail = np.full(40, 1e-7)
+    assert not rule.stalled(_iterates(np.full(40, 0.2033), tail))
+    off = Stall(window=10, rtol=1e-3, min_infeasibility=1e-5)
+    assert not off.stalled(_iterates(f, inf))
+
+
 def test_progress_keeps_nearly_feasible_iterates_with_their_multipliers_and_stops_a_stall():
     """The iteration callback keeps the lowest-objective iterates within near_tol (with
     IPOPT's multipliers, for a warm restart) and asks IPOPT to stop once it stalls."""

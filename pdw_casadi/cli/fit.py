@@ -36,6 +36,7 @@ from pdw_casadi.cli.contract import (
 )
 from pdw_casadi.cli.scripts import STARTED
 from pdw_casadi.engine.errors import ProblemError
+from pdw_casadi.engine.parallel import ImportAhead
 from pdw_casadi.model.problem import Problem, check_bounds
 
 
@@ -129,8 +130,10 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(f"{problem.name} ({problem.family}) has no compliance values "
                              f"to fit; add --free-slope to fit the slope")
         outputs.check()
-        # deferred: the fit workflow and its report, only when the command runs (fast --help)
-        from pdw_casadi.report.fit_report import write_fit_report
+        # the report's plotting is imported on a thread while the fit sets up (its CasADi
+        # work leaves the interpreter free most of a second)
+        report = ImportAhead("pdw_casadi.report.fit_report")
+        # deferred: the fit workflow, only when the command runs (fast --help)
         from pdw_casadi.studies.fit_run import run_fit
 
         opts = fit_options(args, per_leg=False, verbose=not args.quiet)
@@ -146,7 +149,7 @@ def fit_main(argv: Sequence[str] | None = None) -> int:
                       before_work=lambda: _fit_output(outputs, opts))
         out = outputs.stage
         with fit.times.part("report files and figures"):
-            summary = write_fit_report(fit, out)
+            summary = report.module().write_fit_report(fit, out)
         if STARTED[0] is not None:  # a console script: its start-up and imports first
             fit.times.parts = {"start-up and imports": began - STARTED[0], **fit.times.parts}
         for name in ("summary.json", "curves.csv", "fit.png", "limit_cycle.png", "table.md",

@@ -16,9 +16,11 @@ each worker compiles once).
 
 from __future__ import annotations
 
+import importlib
 import multiprocessing
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from typing import TypeVar
 
@@ -114,3 +116,31 @@ def _dask_map(fn, items, scheduler: str, ordered: bool = True):
                 yield fut.result()
         finally:  # the consumer stopped (Ctrl-C, an error): the cluster drops the rest
             client.cancel(futures)
+
+
+class ImportAhead:
+    """A module imported on a background thread while this one computes.
+
+    The fit's symbolic set-up (CasADi building, differentiating and loading functions)
+    runs in C with the interpreter's lock released, about a second per process; a module
+    needed only at the end (the report's plotting, a third of a second of imports) is
+    imported in those gaps. :meth:`module` waits for it (or imports it here, if the
+    thread failed), so the result is the same module either way.
+    """
+
+    def __init__(self, name: str):
+        self.name = name
+        self._thread = threading.Thread(target=self._run, name=f"import {name}",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            importlib.import_module(self.name)
+        except Exception:  # noqa: BLE001 - imported again (and raised) by module()
+            pass
+
+    def module(self):
+        """The module (imported by now)."""
+        self._thread.join()
+        return importlib.import_module(self.name)

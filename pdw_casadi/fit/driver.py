@@ -169,7 +169,8 @@ class FitSolver:
     def solve(self, w0, warm: FeasibleIterate | None = None) -> dict:
         """Solve from ``w0`` (ShootingNLP unknowns), or warm from the kept iterate ``warm``
         with its multipliers (:attr:`FitOptions.warm_ipopt`). The answer, IPOPT status,
-        iterations, the nearly feasible iterates kept (``near``), whether it stalled."""
+        iterations, the nearly feasible iterates kept (``near``), whether it stalled (and
+        whether on a bound's zig-zag, ``zigzag``)."""
         opts = self.opts
         extra = {} if opts.mu_max is None else {"mu_max": opts.mu_max}
         if warm is not None:
@@ -201,7 +202,9 @@ class FitSolver:
                             ratchet=ratchet, near_tol=opts.polish_infeasibility,
                             near_keep=opts.polish_keep,
                             stall=None if opts.stall_window is None else Stall(
-                                opts.stall_window, opts.stall_rtol, opts.stall_infeasibility))
+                                opts.stall_window, opts.stall_rtol, opts.stall_infeasibility,
+                                plateau_infeasibility=opts.stall_plateau_infeasibility,
+                                wander=opts.stall_wander))
         solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
                            {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
                             "jac_g": self.jac_g,
@@ -246,5 +249,5 @@ class FitSolver:
                 "fallback_iteration": fallback,
                 #: nearly feasible iterates for the simulator to polish (FitOptions.polish_*)
                 "near": progress.near,
-                "stalled": progress.stalled,
+                "stalled": progress.stalled, "zigzag": progress.zigzag,
                 "history": progress.history}

@@ -150,6 +150,14 @@ class FitOptions:
     stall_rtol: float = 1e-3
     stall_infeasibility: float = 1e-5
     stall_restarts: int = 1
+    #: a solve is also stopped as stalled when it zig-zags across a bound: over
+    #: ``stall_window`` iterations the best objective of the iterates feasible to
+    #: ``stall_plateau_infeasibility`` fell by at most ``stall_rtol`` of its size while an
+    #: iterate strayed to an infeasibility of ``stall_wander`` or more; such a solve ends
+    #: with its best iterate, without a restart (None: this form off;
+    #: pdw_casadi.nlp.driver.Stall, docs/results/fit.md)
+    stall_plateau_infeasibility: float | None = 1e-4
+    stall_wander: float = 1e-3
     #: start the first solve from an atlas entry's stored NLP solution with its multipliers
     #: (``warm_ipopt``) instead of from the entry's gait alone: with the checks at every
     #: fifth RK4 sample it took twice the iterations (the user's curves move the optimum off

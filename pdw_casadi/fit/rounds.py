@@ -90,9 +90,11 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
     (``FitOptions.keep_best_feasible``) gives the best of them, checked like an answer and
     marked not certified; it ends the rounds too. When a solve gives no accepted gait that
     way, its nearly feasible iterates are polished on the simulator (:func:`polish_iterates`).
-    A stalled solve (``FitOptions.stall_window``) is followed by a warm restart of the same
-    NLP from the least infeasible of its kept iterates, with that iterate's multipliers
-    (``stall_restarts`` per start). ``warm``: a stored solution of the NLP built at (x, p)
+    A solve stalled wandering (``FitOptions.stall_window``) is followed by a warm restart of
+    the same NLP from the least infeasible of its kept iterates, with that iterate's
+    multipliers (``stall_restarts`` per start); one stalled zig-zagging on a bound
+    (``FitOptions.stall_plateau_infeasibility``) ends the rounds with its best iterate.
+    ``warm``: a stored solution of the NLP built at (x, p)
     (:class:`~pdw_casadi.fit.driver.WarmStart`, e.g. an atlas entry's): the first solve
     starts from it with its multipliers when the NLP has its shape."""
     rounds, solves, notes = [], [], []
@@ -154,7 +156,11 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
             cand.solver_status = out["status"]
             rounds.append(cand)
         rnd += 1
-        if stalled and restarts < opts.stall_restarts and out["near"]:
+        # a restart helps a solve wandering infeasible; one zig-zagging on a bound already
+        # passed its best nearly feasible gait, and a restart zig-zags again (one corpus
+        # file: 33 more iterations, the same answer)
+        if stalled and not out.get("zigzag") and restarts < opts.stall_restarts \
+                and out["near"]:
             restarts += 1
             restart_from = (nlp, solver, min(out["near"], key=lambda k: k.infeasibility))
             continue

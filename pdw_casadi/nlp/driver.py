@@ -188,20 +188,35 @@ class FeasibleIterate:
 
 @dataclass(frozen=True)
 class Stall:
-    """When a solve counts as stalled (:class:`Progress` then asks IPOPT to stop): over the
-    last ``window`` iterations the objective moved by at most ``rtol`` of its size, and the
-    least infeasibility among them is above ``min_infeasibility`` and no lower than
-    ``progress`` times the least one before them (IPOPT is wandering, not converging)."""
+    """When a solve counts as stalled (:class:`Progress` then asks IPOPT to stop). Two
+    forms, each over the last ``window`` iterations:
+
+    - wandering: the objective moved by at most ``rtol`` of its size, and the least
+      infeasibility among them is above ``min_infeasibility`` and no lower than
+      ``progress`` times the least one before them (IPOPT is wandering, not converging);
+    - zig-zag on a bound (with ``plateau_infeasibility``): the best objective among the
+      nearly feasible iterates (largest violation at most ``plateau_infeasibility``) fell by
+      at most ``rtol`` of its size, while some iterate of the window strayed to an
+      infeasibility of ``wander`` or more. IPOPT then crosses the stability bound back and
+      forth: the infeasible iterates' lower objective hides the plateau from the first
+      form, and a converging tail (every iterate feasible) never shows the stray.
+    """
 
     window: int
     rtol: float
     min_infeasibility: float
     progress: float = 0.5
+    plateau_infeasibility: float | None = None
+    wander: float = 1e-3
 
     def stalled(self, history: list) -> bool:
         """Whether the iterates ``history`` (:class:`Iterate`, oldest first) end in a stall."""
         if len(history) <= self.window:
             return False
+        return self.wandering(history) or self.zigzag(history)
+
+    def wandering(self, history: list) -> bool:
+        """The first form (see the class)."""
         last, before = history[-self.window:], history[:-self.window]
         f = [h.objective for h in last]
         scale = max(abs(f[-1]), 1e-12)
@@ -209,6 +224,21 @@ class Stall:
         least_before = min(h.infeasibility for h in before)
         return (max(f) - min(f) <= self.rtol * scale and least > self.min_infeasibility
                 and least >= self.progress * least_before)
+
+    def zigzag(self, history: list) -> bool:
+        """The second form (see the class); False without ``plateau_infeasibility``."""
+        if self.plateau_infeasibility is None:
+            return False
+        last, before = history[-self.window:], history[:-self.window]
+        near = [h.objective for h in last if h.infeasibility <= self.plateau_infeasibility]
+        near_before = [h.objective for h in before
+                       if h.infeasibility <= self.plateau_infeasibility]
+        if not near or not near_before:
+            return False
+        if max(h.infeasibility for h in last) < self.wander:
+            return False
+        best = min(near)
+        return min(near_before) - best <= self.rtol * max(abs(best), 1e-12)
 
 
 class Progress(ca.Callback):
@@ -243,6 +273,8 @@ class Progress(ca.Callback):
         self.near_tol, self.near_keep, self.stall = near_tol, near_keep, stall
         self.near: list[FeasibleIterate] = []
         self.stalled = False
+        #: the stall was the zig-zag on a bound (:meth:`Stall.zigzag`), not wandering
+        self.zigzag = False
         self.t0 = time.perf_counter()
         self.iter = 0
         self.history: list[Iterate] = []
@@ -301,9 +333,14 @@ class Progress(ca.Callback):
             self.log(it.line())
         if self.stall is not None and self.stall.stalled(self.history):
             self.stalled = True
+            self.zigzag = self.stall.zigzag(self.history)
             if self.log is not None:
-                self.log(f"stalled: the objective moved by at most {self.stall.rtol:g} of its "
-                         f"size and the infeasibility did not fall over the last "
-                         f"{self.stall.window} iterations; stopping")
+                why = ("the best nearly feasible objective fell by at most "
+                       f"{self.stall.rtol:g} of its size while iterates strayed across a bound"
+                       if self.zigzag else
+                       f"the objective moved by at most {self.stall.rtol:g} of its size and "
+                       "the infeasibility did not fall")
+                self.log(f"stalled: {why} over the last {self.stall.window} iterations; "
+                         f"stopping")
             return [1]
         return [0]
