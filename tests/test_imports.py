@@ -351,3 +351,20 @@ def test_the_fit_reports_only_render():
         bad = sorted(m for m in reached if any(m == s or m.startswith(s + ".")
                                                 for s in SOLVERS))
         assert not bad, f"{module} imports {bad}"
+
+
+#: the longest function a reader should have to hold in mind at once (lines of its def)
+MAX_FUNCTION_LINES = 120
+
+
+def test_no_function_in_the_package_is_longer_than_a_reader_holds():
+    # a longer one is split into named steps (issue of the house: _assemble, Simulator.run,
+    # HybridSystem.__init__, design_main and sweep_main were 141-271 lines)
+    long = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    long.append(f"{_module_name(path, PACKAGE)}.{node.name}: {n} lines")
+    assert long == [], "\n".join(long)

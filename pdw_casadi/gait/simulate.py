@@ -213,6 +213,21 @@ class _PhaseRun:
     switches: list[tuple[str, str, float]] = field(default_factory=list)
 
 
+@dataclass
+class _Step:
+    """One step in progress (never kept on the :class:`Simulator`): its record, what its
+    phases accumulate, its parameters ``p``, those of the phase its last impact enters
+    (``p_next``: the next step's), the damping work at its start (J) and the validity
+    margins seen so far (margins-table key -> value)."""
+
+    record: StepRecord
+    run: _PhaseRun
+    p: np.ndarray
+    p_next: np.ndarray
+    w0: float = 0.0
+    margins: dict[str, float] = field(default_factory=dict)
+
+
 @dataclass(frozen=True)
 class _PhaseEvents:
     """The event table of a phase as arrays: arming thresholds, the armed events' indices,
@@ -423,9 +438,8 @@ class Simulator:
         hs = self.hs
         model = hs.model
         ps = [np.asarray(v, dtype=float).ravel() for v in (p_steps or [p])]
-        p = ps[0]
         xs = np.asarray(x_section, dtype=float).ravel()
-        x = hs.section_to_full.np(xs, p).ravel()
+        x = hs.section_to_full.np(xs, ps[0]).ravel()
         mode = dict(mode or model.initial_mode)
         t = 0.0
         rec = [] if record or margins else None
@@ -433,110 +447,20 @@ class Simulator:
         records: list[StepRecord] = []
         failure = None
         n_samples = n_counted = 0  # recorded samples (for max_samples), entries counted
-        transitions = hs.transitions
-        first = hs.phase_names[0]
         for k in range(steps):
             if not np.all(np.isfinite(x)):
-                failure = Failure("non_finite_state", k, t, first)
+                failure = Failure("non_finite_state", k, t, hs.phase_names[0])
                 break
-            p = ps[k % len(ps)]
-            run = _PhaseRun(k)
-            sr = StepRecord(k, t, [], xs.copy())
-            mode = hs.refresh_indicators(first, x, p, mode)
-            sr.energy_start_J = self._energy(x, p, hs.mode_vector(mode))
-            w0 = x[-1]
-            records.append(sr)
-            phase = first
-            step_margins: dict[str, float] = {}
-            while True:
-                n_rec = len(rec) if rec is not None else 0
-                end = self.run_phase(phase, x, p, mode, t, rec, sr.plan, run)
-                x_end, mode, dt, ev, fail = end.x, end.mode, end.duration_s, end.event, \
-                    end.failure
-                divergence = end.divergence
-                for ph, name, te in run.switches:
-                    event_rows.append({"step": k, "phase": ph, "event": name, "t": te,
-                                       "kind": "switch"})
-                run.switches.clear()
-                self._phase_margins(phase, rec, n_rec, p, step_margins, t, dt)
-                t += dt
-                sr.phases.append((phase, dt))
-                if fail is not None and ev is not None and ev.kind == FAILURE:
-                    # a physical failure only counts if the energy balance still holds
-                    drift = self._drift(sr, run, x_end, p, mode, w0)
-                    if drift is not None:
-                        divergence = (f"the energy balance is off by {drift:.3g} J when "
-                                      f"'{fail}' was reached; {_ADVICE}")
-                        fail = DIVERGENCE
-                if divergence is not None:
-                    failure = Failure(fail, k, t, phase, divergence)
-                    event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
-                                       "kind": "failure"})
-                    x = x_end
-                    break
-                if fail is not None:
-                    failure = Failure(fail, k, t, phase, ev.description if ev else "")
-                    event_rows.append({"step": k, "phase": phase, "event": fail, "t": t,
-                                       "kind": "failure"})
-                    x = x_end
-                    break
-                event_rows.append({"step": k, "phase": phase, "event": ev.name, "t": t,
-                                   "kind": "guard"})
-                tr = transitions[(phase, ev.name)]
-                mv = hs.mode_vector(mode)
-                if tr.ends_step:
-                    sr.step_length = float(hs.step_length.np(x_end, p)[0, 0])
-                imp = hs.impact_at(tr.name, x_end, p)
-                x_plus, chk = imp.x_plus, imp.checks
-                at = len(sr.plan.items)
-                sr.plan.items.append(TransitionItem(tr.name))
-                ke = hs.energy_at(x_end, p, mv)
-                ke_post = hs.energy_at(imp.x_post, p, mv).kinetic
-                sr.impact_loss_J += ke.kinetic - ke_post
-                for name, v in zip(hs.check_names[tr.name], chk, strict=True):
-                    step_margins[check_key(tr.name, name)] = float(v)
-                bad = [n for n, v in zip(hs.check_names[tr.name], chk, strict=True) if v <= 0]
-                if bad:
-                    failure = Failure(f"{tr.name}:{bad[0]}", k, t, phase,
-                                      "impulse or post-impact velocity of the wrong sign")
-                    x = x_end
-                    break
-                new_mode = tr.mode_after(mode) if tr.mode_after else mode
-                if isinstance(new_mode, str):
-                    failure = Failure(new_mode, k, t, phase, "mode rule broken at " + tr.name)
-                    x = x_end
-                    break
-                # the phase entered belongs to the next step when the impact ends this one
-                # (a per-leg walker: the legs' parameters swap roles there)
-                p_enter = p
-                if tr.ends_step:
-                    p_enter = ps[(k + 1) % len(ps)] if p_after is None or k + 1 < steps \
-                        else np.asarray(p_after, dtype=float).ravel()
-                new_mode = hs.refresh_indicators(tr.target, x_plus, p_enter, new_mode)
-                sr.plan.items[at] = TransitionItem(tr.name, tuple(hs.mode_vector(new_mode)))
-                self._guards_ahead(tr, x_plus, p_enter, new_mode, step_margins)
-                run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))
-                mode, x, phase = new_mode, x_plus, tr.target
-                if tr.ends_step:
-                    sr.dissipated_damping_J = x_end[-1] - w0
-                    sr.spring_loss_J = run.spring_loss
-                    sr.energy_end_J = ke_post + ke.potential + self._spring(x_plus, p,
-                                                                     hs.mode_vector(mode))
-                    sr.x_section_end = hs.full_to_section.np(x).ravel()
-                    sr.margins = step_margins
-                    xs = sr.x_section_end
-                    break
+            p_next = ps[(k + 1) % len(ps)] if p_after is None or k + 1 < steps \
+                else np.asarray(p_after, dtype=float).ravel()
+            st = _Step(StepRecord(k, t, [], xs.copy()), _PhaseRun(k), ps[k % len(ps)], p_next)
+            records.append(st.record)
+            x, mode, t, phase, failure = self._step(st, x, mode, t, rec, event_rows)
+            if failure is None:
+                failure = self._unbalanced(st.record, t, phase, event_rows)
             if failure is not None:
                 break
-            residual = sr.energy_residual_J
-            if not abs(residual) <= energy_tolerance(sr.energy_start_J, sr.energy_end_J):
-                failure = Failure(DIVERGENCE, k, t, phase,
-                                  f"the energy balance of the step is off by {residual:.3g} J;"
-                                  f" {_ADVICE}")
-                sr.x_section_end = None
-                event_rows.append({"step": k, "phase": phase, "event": DIVERGENCE, "t": t,
-                                   "kind": "failure"})
-                break
+            xs = st.record.x_section_end
             if progress is not None:
                 progress(k + 1)
             if max_samples is not None and rec is not None:
@@ -557,6 +481,118 @@ class Simulator:
                                        (len(c.times_s), 1)) for c in rec])
         return SimulationResult(traj, event_rows, records, failure, model.state_names, x, mode,
                                 sample_modes=modes)
+
+    def _step(self, st: _Step, x, mode, t, rec, event_rows):
+        """Step ``st`` from the full state ``x`` at the section (mode ``mode``, time ``t`` in
+        s): its phases, each ended by a guard and its transition, until the impact that ends
+        the step; fills ``st.record`` (phases, energy balance in J, margins, the section
+        state after it). Returns (x, mode, t, phase, failure): after that impact, in the
+        phase it enters (failure None), or where the step failed (the state there)."""
+        hs = self.hs
+        sr, run, p = st.record, st.run, st.p
+        phase = hs.phase_names[0]
+        mode = hs.refresh_indicators(phase, x, p, mode)
+        sr.energy_start_J = self._energy(x, p, hs.mode_vector(mode))
+        st.w0 = x[-1]
+        while True:
+            n_rec = len(rec) if rec is not None else 0
+            end = self.run_phase(phase, x, p, mode, t, rec, sr.plan, run)
+            mode, dt = end.mode, end.duration_s
+            for ph, name, te in run.switches:
+                event_rows.append({"step": sr.index, "phase": ph, "event": name, "t": te,
+                                   "kind": "switch"})
+            run.switches.clear()
+            self._phase_margins(phase, rec, n_rec, p, st.margins, t, dt)
+            t += dt
+            sr.phases.append((phase, dt))
+            failure = self._phase_failure(st, end, t, phase, event_rows)
+            if failure is not None:
+                return end.x, mode, t, phase, failure
+            event_rows.append({"step": sr.index, "phase": phase, "event": end.event.name,
+                               "t": t, "kind": "guard"})
+            tr = hs.transitions[(phase, end.event.name)]
+            x_plus, new_mode, failure = self._transition(st, tr, end.x, mode, t, phase)
+            if failure is not None:
+                return end.x, mode, t, phase, failure
+            mode, x, phase = new_mode, x_plus, tr.target
+            if tr.ends_step:
+                return x, mode, t, phase, None
+
+    def _phase_failure(self, st: _Step, end: PhaseEnd, t, phase, event_rows
+                       ) -> Failure | None:
+        """The failure phase ``phase`` ended in at time ``t`` (s), added to ``event_rows``;
+        None when it reached a guard."""
+        fail, ev, divergence = end.failure, end.event, end.divergence
+        if fail is not None and ev is not None and ev.kind == FAILURE:
+            # a physical failure only counts if the energy balance still holds
+            drift = self._drift(st.record, st.run, end.x, st.p, end.mode, st.w0)
+            if drift is not None:
+                divergence = (f"the energy balance is off by {drift:.3g} J when "
+                              f"'{fail}' was reached; {_ADVICE}")
+                fail = DIVERGENCE
+        if divergence is None and fail is None:
+            return None
+        detail = divergence if divergence is not None else (ev.description if ev else "")
+        event_rows.append({"step": st.record.index, "phase": phase, "event": fail, "t": t,
+                           "kind": "failure"})
+        return Failure(fail, st.record.index, t, phase, detail)
+
+    def _transition(self, st: _Step, tr, x_end, mode, t, phase):
+        """Transition ``tr`` at the guard that ended ``phase`` (state ``x_end``, mode
+        ``mode``, time ``t`` in s): its impact (the kinetic energy it takes, J; its checks,
+        margins of the step), the mode after it, the margins of the guards ahead in the phase
+        it enters; the impact that ends the step closes the step's record. Returns (x, mode,
+        failure): the state and mode that phase begins with, or a failure (checks of the
+        wrong sign, a mode rule broken) with the state and mode before."""
+        hs, sr, p = self.hs, st.record, st.p
+        mv = hs.mode_vector(mode)
+        if tr.ends_step:
+            sr.step_length = float(hs.step_length.np(x_end, p)[0, 0])
+        imp = hs.impact_at(tr.name, x_end, p)
+        x_plus, chk = imp.x_plus, imp.checks
+        at = len(sr.plan.items)
+        sr.plan.items.append(TransitionItem(tr.name))
+        ke = hs.energy_at(x_end, p, mv)
+        ke_post = hs.energy_at(imp.x_post, p, mv).kinetic
+        sr.impact_loss_J += ke.kinetic - ke_post
+        for name, v in zip(hs.check_names[tr.name], chk, strict=True):
+            st.margins[check_key(tr.name, name)] = float(v)
+        bad = [n for n, v in zip(hs.check_names[tr.name], chk, strict=True) if v <= 0]
+        if bad:
+            return x_end, mode, Failure(f"{tr.name}:{bad[0]}", sr.index, t, phase,
+                                        "impulse or post-impact velocity of the wrong sign")
+        new_mode = tr.mode_after(mode) if tr.mode_after else mode
+        if isinstance(new_mode, str):
+            return x_end, mode, Failure(new_mode, sr.index, t, phase,
+                                        "mode rule broken at " + tr.name)
+        # the phase entered belongs to the next step when the impact ends this one
+        # (a per-leg walker: the legs' parameters swap roles there)
+        p_enter = st.p_next if tr.ends_step else p
+        new_mode = hs.refresh_indicators(tr.target, x_plus, p_enter, new_mode)
+        sr.plan.items[at] = TransitionItem(tr.name, tuple(hs.mode_vector(new_mode)))
+        self._guards_ahead(tr, x_plus, p_enter, new_mode, st.margins)
+        st.run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))
+        if tr.ends_step:
+            sr.dissipated_damping_J = x_end[-1] - st.w0
+            sr.spring_loss_J = st.run.spring_loss
+            sr.energy_end_J = ke_post + ke.potential + self._spring(
+                x_plus, p, hs.mode_vector(new_mode))
+            sr.x_section_end = hs.full_to_section.np(x_plus).ravel()
+            sr.margins = st.margins
+        return x_plus, new_mode, None
+
+    def _unbalanced(self, sr: StepRecord, t, phase, event_rows) -> Failure | None:
+        """A numerical divergence when the completed step's energy balance is off by more
+        than :func:`energy_tolerance` (J; the step's section state is then dropped), added
+        to ``event_rows``; else None."""
+        residual = sr.energy_residual_J
+        if abs(residual) <= energy_tolerance(sr.energy_start_J, sr.energy_end_J):
+            return None
+        sr.x_section_end = None
+        event_rows.append({"step": sr.index, "phase": phase, "event": DIVERGENCE, "t": t,
+                           "kind": "failure"})
+        return Failure(DIVERGENCE, sr.index, t, phase,
+                       f"the energy balance of the step is off by {residual:.3g} J; {_ADVICE}")
 
     def _drift(self, sr, run: _PhaseRun, x, p, mode, w0) -> float | None:
         """The energy-balance residual (J) of the step so far at state ``x`` when it exceeds

@@ -203,7 +203,7 @@ class HybridSystem:
     def __init__(self, model: WalkerModel, chunk_size: int = 32):
         self.model = model
         sysm = model.system
-        q, qd, p, m = sysm.q, sysm.qd, model.p, model.m
+        q, p, m = sysm.q, model.p, model.m
         self.nq = q.shape[0]
         self.nx = 2 * self.nq + 1
         self.np = p.shape[0]
@@ -222,101 +222,156 @@ class HybridSystem:
         self.phase_margins: dict[str, list[tuple[int, str, Margin]]] = {}
         self.check_margins: dict[str, list[tuple[int, str, Margin]]] = {}
         self.margin_specs: dict[str, Margin] = {}
-
-        def subs_x(expr):
-            return ca.substitute(expr, ca.vertcat(q, qd), x[: 2 * self.nq])
-
-        self.subs_x = subs_x
         self.x_sym = x
         for ph in model.phases:
-            xdot = subs_x(ca.vertcat(qd, ph.qdd, model.damping_power))
-            # cse: the expression graph repeats subexpressions (sin/cos of the same angles,
-            # products in M_q); merging them saves ~12 % of the operations, same values
-            rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"],
-                              CSE)
-            def f(y, rhs=rhs):
-                return rhs(y, p, m)
-
-            x_next = rk4(f, x, h)
-            step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
-                               ["x", "h", "p", "m"], ["xf"], CSE)
-            g = subs_x(ca.vertcat(*[e.expr for e in ph.events]))
-            events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"],
-                                 CSE)
-            req = subs_x(ca.vertcat(*[e.require if e.require is not None else ca.SX(1.0)
-                                      for e in ph.events]))
-            self.require[ph.name] = Lazy(ca.Function(f"require_{ph.name}", [x, p, m], [req]))
-            tau = ca.SX.sym("tau")
-            x_tau = step(x, tau, p, m)
-            g_tau = events(x_tau, p, m)
-            locate = ca.Function(f"locate_{ph.name}", [x, tau, p, m],
-                                 [g_tau, ca.jacobian(g_tau, tau), x_tau], CSE)
-            outs = {**model.common_outputs, **ph.outputs}
-            out_vec = subs_x(ca.vertcat(*outs.values()))
-            self.outputs[ph.name] = ca.Function(f"outputs_{ph.name}", [x, p, m], [out_vec])
-            self.output_names[ph.name] = list(outs)
-            self.phase_margins[ph.name] = _declared(list(outs), ph.margins, output_margin)
-            self.margin_specs.update({phase_key(ph.name, name): mg
-                                      for _, name, mg in self.phase_margins[ph.name]})
-            # K steps per call: the simulator's hot loop calls this, not the single step.
-            # The events are needed at every step's end point, whose right-hand side is the
-            # next step's first stage: one fused function gives both (shared subexpressions,
-            # the multipliers), and the chunk carries k1 along ("first same as last"), so a
-            # step costs four right-hand sides instead of four plus the events. Same
-            # arithmetic as ``step``, so the states are the same.
-            xg = subs_x(ca.vertcat(qd, ph.qdd, model.damping_power, *[e.expr for e in ph.events]))
-            fg = ca.Function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]],
-                             CSE)
-            z = ca.SX.sym("z", 2 * self.nx)
-            xz, k1 = z[: self.nx], z[self.nx:]
-            xn = rk4(f, xz, h, k1=k1)
-            k1n, gn = fg(xn, p, m)
-            fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
-            acc = fsal.mapaccum(f"acc_{ph.name}", chunk_size, [0], [0])
-            X0 = ca.MX.sym("x0", self.nx)
-            hh, pp, mm = ca.MX.sym("h"), ca.MX.sym("p", self.np), ca.MX.sym("m", self.nm)
-            Z, G = acc(ca.vertcat(X0, fg(X0, pp, mm)[0]), hh, pp, mm)
-            self.chunk[ph.name] = ca.Function(f"chunk_{ph.name}", [X0, hh, pp, mm],
-                                              [Z[: self.nx, :], G])
-            # exact derivatives of the event functions (for the Poincare map)
-            self.event_jac[ph.name] = ca.Function(
-                f"event_jac_{ph.name}", [x, p, m], [g, ca.jacobian(g, x), ca.jacobian(g, p)])
-            self.chunk[ph.name] = Lazy(self.chunk[ph.name], HOT)
-            self.outputs[ph.name] = Lazy(self.outputs[ph.name])
-            self.event_jac[ph.name] = Lazy(self.event_jac[ph.name])
-            self.rhs[ph.name], self.step[ph.name] = rhs, Lazy(step)
-            self.events[ph.name] = Lazy(events)
-            self.locate[ph.name] = Lazy(locate)
-            self.event_list[ph.name] = ph.events
-
+            self._add_phase(ph, h)
         self.impact, self.impact_jac = {}, {}
         #: (phase, guard event name) -> the transition taken there
-        self.transitions: dict[tuple[str, str], Transition] = {}
+        self.transitions: dict[tuple[str, str], Transition] = self._guard_transitions()
         for tr in model.transitions:
-            key = (tr.source, tr.guard or _only_guard(self.phases[tr.source]))
-            if key in self.transitions:
-                raise ValueError(f"two transitions leave phase {key[0]!r} at guard {key[1]!r}")
-            self.transitions[key] = tr
-        for tr in model.transitions:
-            chk = ca.vertcat(*tr.checks.values()) if tr.checks else ca.SX(0, 1)
-            q_new, qd_new = q, tr.qd_plus
-            if tr.relabel is not None:
-                q_new = tr.relabel[0]
-                qd_new = ca.substitute(tr.relabel[1], qd, tr.qd_plus)
-            x_plus = subs_x(ca.vertcat(q_new, qd_new, 0)) + ca.vertcat(
-                ca.SX(2 * self.nq, 1), x[-1])
-            # x_post: post-impact state before relabelling (same frame, for energy balances)
-            x_post = subs_x(ca.vertcat(q, tr.qd_plus))
-            x_post = ca.vertcat(x_post, x[-1])
-            self.impact[tr.name] = Lazy(ca.Function(
-                f"impact_{tr.name}", [x, p],
-                [x_plus, subs_x(tr.impulse), subs_x(chk), x_post],
-                ["x", "p"], ["x_plus", "impulse", "checks", "x_post"]), INTERPRETED)
-            self.impact_jac[tr.name] = Lazy(ca.Function(
-                f"impact_jac_{tr.name}", [x, p],
-                [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]), INTERPRETED)
+            self._add_impact(tr)
         self.check_names = {tr.name: list(tr.checks) for tr in model.transitions}
-        for tr in model.transitions:
+        self._add_transition_margins()
+        self._add_walker_functions()
+
+    def subs_x(self, expr):
+        """``expr`` in (q, qd) as an expression of the state symbol ``x_sym``."""
+        sysm = self.model.system
+        return ca.substitute(expr, ca.vertcat(sysm.q, sysm.qd), self.x_sym[: 2 * self.nq])
+
+    # -- one phase -------------------------------------------------------------------------
+    def _add_phase(self, ph: Phase, h) -> None:
+        """The functions of phase ``ph`` in (x, p, m): its right-hand side and RK4 step of
+        size ``h`` (s), its events, their requirements and location within a step, its
+        outputs and validity margins, the simulator's chunk of steps, and the exact
+        derivatives of its events."""
+        x, p, m = self.x_sym, self.model.p, self.model.m
+        rhs, step = self._phase_step(ph, h)
+        g, events, locate = self._phase_events(ph, step)
+        outputs = self._phase_outputs(ph)
+        chunk = self._phase_chunk(ph, rhs, h)
+        # exact derivatives of the event functions (for the Poincare map)
+        event_jac = ca.Function(
+            f"event_jac_{ph.name}", [x, p, m], [g, ca.jacobian(g, x), ca.jacobian(g, p)])
+        self.chunk[ph.name] = Lazy(chunk, HOT)
+        self.outputs[ph.name] = Lazy(outputs)
+        self.event_jac[ph.name] = Lazy(event_jac)
+        self.rhs[ph.name], self.step[ph.name] = rhs, Lazy(step)
+        self.events[ph.name] = Lazy(events)
+        self.locate[ph.name] = Lazy(locate)
+        self.event_list[ph.name] = ph.events
+
+    def _phase_step(self, ph: Phase, h) -> tuple[ca.Function, ca.Function]:
+        """The phase's right-hand side xdot(x, p, m) (eq. 12 with the damping power, W) and
+        its RK4 step of size ``h`` (s)."""
+        model = self.model
+        x, p, m = self.x_sym, model.p, model.m
+        xdot = self.subs_x(ca.vertcat(model.system.qd, ph.qdd, model.damping_power))
+        # cse: the expression graph repeats subexpressions (sin/cos of the same angles,
+        # products in M_q); merging them saves ~12 % of the operations, same values
+        rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"], CSE)
+        x_next = rk4(lambda y: rhs(y, p, m), x, h)
+        step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
+                           ["x", "h", "p", "m"], ["xf"], CSE)
+        return rhs, step
+
+    def _phase_events(self, ph: Phase, step: ca.Function
+                      ) -> tuple[ca.SX, ca.Function, ca.Function]:
+        """The phase's event functions g (their expression in x and ``events``), their
+        requirements at a guard (registered in ``self.require``), and ``locate``: g, dg/dtau
+        and the state a partial step tau (s) after x (the Newton location of a crossing)."""
+        x, p, m = self.x_sym, self.model.p, self.model.m
+        g = self.subs_x(ca.vertcat(*[e.expr for e in ph.events]))
+        events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"], CSE)
+        req = self.subs_x(ca.vertcat(*[e.require if e.require is not None else ca.SX(1.0)
+                                       for e in ph.events]))
+        self.require[ph.name] = Lazy(ca.Function(f"require_{ph.name}", [x, p, m], [req]))
+        tau = ca.SX.sym("tau")
+        x_tau = step(x, tau, p, m)
+        g_tau = events(x_tau, p, m)
+        locate = ca.Function(f"locate_{ph.name}", [x, tau, p, m],
+                             [g_tau, ca.jacobian(g_tau, tau), x_tau], CSE)
+        return g, events, locate
+
+    def _phase_outputs(self, ph: Phase) -> ca.Function:
+        """The phase's named outputs (the walker's common ones, then the phase's: N, m, deg,
+        J, ...) as one function of (x, p, m); registers their names and validity margins."""
+        model = self.model
+        outs = {**model.common_outputs, **ph.outputs}
+        out_vec = self.subs_x(ca.vertcat(*outs.values()))
+        outputs = ca.Function(f"outputs_{ph.name}", [self.x_sym, model.p, model.m], [out_vec])
+        self.output_names[ph.name] = list(outs)
+        self.phase_margins[ph.name] = _declared(list(outs), ph.margins, output_margin)
+        self.margin_specs.update({phase_key(ph.name, name): mg
+                                  for _, name, mg in self.phase_margins[ph.name]})
+        return outputs
+
+    def _phase_chunk(self, ph: Phase, rhs: ca.Function, h) -> ca.Function:
+        """``chunk_size`` RK4 steps of size ``h`` (s) in one call: the states after each
+        step (columns) and the event functions there."""
+        model = self.model
+        x, p, m = self.x_sym, model.p, model.m
+        # the simulator's hot loop calls this, not the single step. The events are needed
+        # at every step's end point, whose right-hand side is the next step's first stage:
+        # one fused function gives both (shared subexpressions, the multipliers), and the
+        # chunk carries k1 along ("first same as last"), so a step costs four right-hand
+        # sides instead of four plus the events. Same arithmetic as ``step``, so the states
+        # are the same.
+        xg = self.subs_x(ca.vertcat(model.system.qd, ph.qdd, model.damping_power,
+                                    *[e.expr for e in ph.events]))
+        fg = ca.Function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]],
+                         CSE)
+        z = ca.SX.sym("z", 2 * self.nx)
+        xz, k1 = z[: self.nx], z[self.nx:]
+        xn = rk4(lambda y: rhs(y, p, m), xz, h, k1=k1)
+        k1n, gn = fg(xn, p, m)
+        fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
+        acc = fsal.mapaccum(f"acc_{ph.name}", self.chunk_size, [0], [0])
+        X0 = ca.MX.sym("x0", self.nx)
+        hh, pp, mm = ca.MX.sym("h"), ca.MX.sym("p", self.np), ca.MX.sym("m", self.nm)
+        Z, G = acc(ca.vertcat(X0, fg(X0, pp, mm)[0]), hh, pp, mm)
+        return ca.Function(f"chunk_{ph.name}", [X0, hh, pp, mm], [Z[: self.nx, :], G])
+
+    # -- transitions -----------------------------------------------------------------------
+    def _guard_transitions(self) -> dict[tuple[str, str], Transition]:
+        """(phase, guard event name) -> the transition taken there (at most one each)."""
+        transitions: dict[tuple[str, str], Transition] = {}
+        for tr in self.model.transitions:
+            key = (tr.source, tr.guard or _only_guard(self.phases[tr.source]))
+            if key in transitions:
+                raise ValueError(f"two transitions leave phase {key[0]!r} at guard {key[1]!r}")
+            transitions[key] = tr
+        return transitions
+
+    def _add_impact(self, tr: Transition) -> None:
+        """The map of transition ``tr`` in (x, p): the state after it in the next phase's
+        coordinates (the damping work W, J, carried over), the impulses (N s), the checks
+        and the post-impact state before relabelling; and its Jacobians in x and p."""
+        q, qd = self.model.system.q, self.model.system.qd
+        x, p = self.x_sym, self.model.p
+        chk = ca.vertcat(*tr.checks.values()) if tr.checks else ca.SX(0, 1)
+        q_new, qd_new = q, tr.qd_plus
+        if tr.relabel is not None:
+            q_new = tr.relabel[0]
+            qd_new = ca.substitute(tr.relabel[1], qd, tr.qd_plus)
+        x_plus = self.subs_x(ca.vertcat(q_new, qd_new, 0)) + ca.vertcat(
+            ca.SX(2 * self.nq, 1), x[-1])
+        # x_post: post-impact state before relabelling (same frame, for energy balances)
+        x_post = self.subs_x(ca.vertcat(q, tr.qd_plus))
+        x_post = ca.vertcat(x_post, x[-1])
+        self.impact[tr.name] = Lazy(ca.Function(
+            f"impact_{tr.name}", [x, p],
+            [x_plus, self.subs_x(tr.impulse), self.subs_x(chk), x_post],
+            ["x", "p"], ["x_plus", "impulse", "checks", "x_post"]), INTERPRETED)
+        self.impact_jac[tr.name] = Lazy(ca.Function(
+            f"impact_jac_{tr.name}", [x, p],
+            [x_plus, ca.jacobian(x_plus, x), ca.jacobian(x_plus, p)]), INTERPRETED)
+
+    def _add_transition_margins(self) -> None:
+        """The validity margins of the transitions: their checks' (N s, m/s, m) and, for
+        the phase each enters, how far each of its directional guards is from crossing."""
+        transitions = self.model.transitions
+        for tr in transitions:
             self.check_margins[tr.name] = _declared(list(tr.checks), tr.margins, check_margin)
             self.margin_specs.update({check_key(tr.name, name): mg
                                       for _, name, mg in self.check_margins[tr.name]})
@@ -325,21 +380,29 @@ class HybridSystem:
         #: without arming; see :data:`~pdw_casadi.model.margins.GUARD_AHEAD`)
         self.guards_ahead: dict[str, list[tuple[int, Event, str]]] = {}
         #: transition name -> the phase it enters
-        self.transition_target = {tr.name: tr.target for tr in model.transitions}
-        for tr in model.transitions:
+        self.transition_target = {tr.name: tr.target for tr in transitions}
+        for tr in transitions:
             ahead = [(i, ev, check_key(tr.name, ahead_name(ev.name)))
                      for i, ev in enumerate(self.event_list[tr.target])
                      if ev.directional_guard]
             self.guards_ahead[tr.name] = ahead
             self.margin_specs.update({key: GUARD_AHEAD for _, _, key in ahead})
-        e = subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
+
+    # -- the whole walker ------------------------------------------------------------------
+    def _add_walker_functions(self) -> None:
+        """Functions of the walker in any phase: its energies (J), the step length (m), the
+        Poincare section maps and its drawn points (m)."""
+        model, sysm = self.model, self.model.system
+        x, p, m = self.x_sym, model.p, model.m
+        e = self.subs_x(ca.vertcat(sysm.kinetic, sysm.potential, model.spring_energy))
         # Lazy: called a few times per step by the simulator (``.np``); ``(...)`` gives DMs
         self.energy = Lazy(ca.Function("energy", [x, p, m], [e], ["x", "p", "m"], ["E"]))
-        self.step_length = Lazy(ca.Function("step_length", [x, p], [subs_x(model.step_length)]))
+        self.step_length = Lazy(ca.Function("step_length", [x, p],
+                                            [self.subs_x(model.step_length)]))
         self.section_to_full = Lazy(model.section_to_full)
         self.full_to_section = Lazy(model.full_to_section)
         self.points = ca.Function(
-            "points", [x, p], [subs_x(ca.horzcat(*model.points.values()))])
+            "points", [x, p], [self.subs_x(ca.horzcat(*model.points.values()))])
         self.point_names = list(model.points)
 
     def libraries(self) -> list[Lazy]:

@@ -21,16 +21,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import casadi as ca
 
 from pdw_casadi.engine.errors import ProblemError
-from pdw_casadi.model.feet.base import FlatReading, Foot, Ground
+from pdw_casadi.model.feet.base import FlatReading, Foot, FootLeg, Ground, Hold, Pivot
 from pdw_casadi.model.feet.flat import FLAT
 from pdw_casadi.model.hybrid import (
     FAILURE,
     GUARD,
     Event,
+    Phase,
+    Transition,
     WalkerModel,
     make_phase,
     make_transition,
@@ -157,11 +161,61 @@ def build_per_leg(name: str, g: float, ext=None, foot: Foot = FLAT) -> WalkerMod
     return _assemble(name, g, a1, a2, sym["m_h"], c1, c2, p, sym["slope"], names, ext, foot)
 
 
+@dataclass
+class _Contacts:
+    """The contacts of a step (rows in m or rad; their multipliers in N and N m): the
+    trailing foot's toe ``toe2`` (phase I, the section), the stance foot's toe ``toe1``
+    (phase III, the impacts), the leading foot's heel ``heel2``, the rows holding the stance
+    foot flat, the rows the swing foot closes in single support and holds until it lands
+    (``hold``: its :class:`~pdw_casadi.model.feet.base.Hold`, None when its foot has none;
+    the rows empty then), and the contact sets of phases I, II, III and of the foot strike."""
+
+    toe1: Pivot
+    toe2: Pivot
+    heel2: Pivot
+    flat1_rows: ca.SX
+    flat1_labels: tuple[str, ...]
+    hold: Hold | None
+    hold_rows: ca.SX
+    hold_labels: tuple[str, ...]
+    contact_I: ContactSet
+    contact_II: ContactSet
+    contact_III: ContactSet
+    contact_foot_strike: ContactSet
+
+
+@dataclass
+class _Parts:
+    """What every phase and transition of the walker is made from: its planar system and
+    generalised forces (N, N m; eq. 12), the ground, the feet on leg 1 (stance role) and leg
+    2 (swing role), the contacts of the step and the events of every phase (the knees', the
+    fall, an extension's)."""
+
+    sysm: PlanarSystem
+    F_q: ca.SX
+    ground: Ground
+    foot1: FootLeg
+    foot2: FootLeg
+    contacts: _Contacts
+    common_events: list[Event]
+
+
+class _Swing(NamedTuple):
+    """The swing foot's events in single support: its heel striking the ground (the guard),
+    its toe scuffing it (a failure), and the toe's clearance (m) they are read with."""
+
+    heel_strike: Event
+    scuff: Event
+    clearance: ca.SX
+
+
 def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
               foot: Foot = FLAT) -> WalkerModel:
     """The model from leg 1's (stance role) and leg 2's (swing role) anthropometry ``a1``,
-    ``a2`` and compliance ``c1``, ``c2`` (numbers or SX entries of ``p``); ``ext``,
-    ``foot``: see :func:`build` (each part reads the values of the leg it belongs to)."""
+    ``a2`` (m, kg, kg m^2) and compliance ``c1``, ``c2`` (N m/rad, N m s/rad, rad; numbers
+    or SX entries of ``p``), the hip mass ``m_h`` (kg), gravity ``g`` (m/s^2) and the slope
+    ``gamma`` (rad); ``ext``, ``foot``: see :func:`build` (each part reads the values of the
+    leg it belongs to)."""
     ne = len(foot.extra_coordinates)
     q = ca.SX.sym("q", 8 + 2 * ne)
     qd = ca.SX.sym("qd", 8 + 2 * ne)
@@ -186,215 +240,33 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
     links = [*foot1.links, ("ankle1", "knee1"), ("knee1", "hip"), ("hip", "knee2"),
              ("knee2", "ankle2"), *foot2.links]
     sysm = PlanarSystem(q, qd, [*chain.bodies, *foot1.bodies, *foot2.bodies], g)
+    F_q, spring_energy, damping_power = _forces(sysm, q, md, foot1, foot2, c1, c2, ext)
+    contacts = _contacts(foot1, foot2)
 
-    # each joint element uses the compliance of the leg it belongs to; an extension may
-    # shift the ankle spring's rest angle (foot perpendicular to the shank)
-    elements = [*ankle_elements(qf1, q1, qf2, q4, c1, c2),
-                *knee_elements(md, q1, q2, q3, q4, c1, c2)]
-    if ext:
-        elements += ext.elements(c1, c2, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
-    elements += [*foot1.elements(), *foot2.elements()]
-    F_torque, spring_energy, damping_power = total_torque(sysm, elements, qd)
-    F_q = sysm.F_gravity + sysm.F_velocity + F_torque
+    common_events, knees, hip_h = _common_events(q, qd, ground, chain.hip, a1, c1, c2, ext)
+    w = _Parts(sysm, F_q, ground, foot1, foot2, contacts, common_events)
 
-    # the contacts of the step: the trailing foot's toe (phase I, section), the stance
-    # foot's toe (phase III, impacts: it starts flat, so its own events arm first), the
-    # leading foot's heel; the feet flat
-    toe2 = foot2.pivot("toe")
-    toe1 = foot1.pivot("toe", arm_first=True)
-    heel2 = foot2.pivot("heel")
-    k1 = toe1.rows.shape[0]
-    flat1_rows, flat1_labels = foot1.flat_rows()
-    flat2_rows, flat2_labels = foot2.flat_rows()
-    contact_I = ContactSet("I", ca.vertcat(toe2.rows, flat1_rows), toe2.labels + flat1_labels)
-    contact_II = ContactSet("II", flat1_rows, flat1_labels)
-    # rows the swing foot closes in single support and holds until it lands (a stop of
-    # one of its joints), in every later contact of the step
-    hold = foot2.swing_hold()
-    hold_rows, hold_labels = (hold.rows, hold.labels) if hold else (ca.SX(0, 1), ())
-    contact_III = ContactSet("III", ca.vertcat(toe1.rows, heel2.rows, hold_rows),
-                             toe1.labels + heel2.labels + hold_labels)
-    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(toe1.rows, flat2_rows),
-                                     toe1.labels + flat2_labels)
-
-    theta1, theta2 = q2 - q1, q3 - q4
-    dtheta1, dtheta2 = qd[1] - qd[0], qd[2] - qd[3]
-    hip_h = ground.height(chain.hip)
-    leg = a1["l_s"] + a1["l_t"]
-    fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
-    common_events = [*knee_events(1, theta1, dtheta1, c1), *knee_events(2, theta2, dtheta2, c2),
-                     fall]
-    if ext:
-        common_events += ext.events(c1, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
-
-    # Phase I: leading foot flat, trailing toe pivot
-    ph1 = make_phase(sysm, F_q, "I", contact_I)
-    lam = ph1.lam
-    k = toe2.rows.shape[0]
-    N_toe2 = ca.dot(lam[0:2], n)
-    flat = foot1.flat_reading(lam[k:], single_support=False)
-    toe2_read = _releasing(toe2.read(lam[:k]))
-    # the trailing toe's force is the releasing contact (it is the guard, zero at toe-off),
-    # so it is reported but is not a validity margin
-    ph1.outputs = {**flat.outputs, f"release_N_{toe2.tag}": N_toe2,
-                   f"F_{toe2.tag}_x": lam[0], f"F_{toe2.tag}_y": lam[1], **toe2.extras,
-                   **toe2_read.outputs}
-    ph1.events = [
-        Event("toe_off", N_toe2, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
-        *flat.events, *toe2.events, *toe2_read.events, *common_events,
-    ]
-    # the foot's double-support stages after I (the trailing foot's contact changing),
-    # each left at toe off into II or entered by the next; a stage that closes the swing
-    # foot's hold is entered through its impact and left into the held phase
-    trailing_transitions = []
-    trailing_phases = []
-    previous = "I"
-    for st in foot.trailing_stages(foot1, foot2, ground):
-        piv = st.pivot
-        kp, nf = piv.rows.shape[0], flat1_rows.shape[0]
-        extra_rows, extra_labels = (hold_rows, hold_labels) if st.closes_hold else (
-            ca.SX(0, 1), ())
-        contact = ContactSet(st.name, ca.vertcat(piv.rows, flat1_rows, extra_rows),
-                             piv.labels + flat1_labels + extra_labels)
-        ph = make_phase(sysm, F_q, st.name, contact)
-        N = ca.dot(ph.lam[0:2], n)
-        flat = foot1.flat_reading(ph.lam[kp:kp + nf], single_support=False)
-        piv_read = _releasing(piv.read(ph.lam[:kp]))
-        held = (hold.reading(ph.lam[kp + nf:]) if st.closes_hold
-                else _NOTHING)
-        ph.outputs = {**flat.outputs, f"release_N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
-                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, **piv_read.outputs,
-                      **held.outputs}
-        ph.events = [
-            Event("toe_off", N, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
-            *flat.events, *st.events, *piv.events, *piv_read.events, *held.events,
-            *common_events,
-        ]
-        trailing_phases.append(ph)
-        entry = make_transition(sysm, st.entry, previous, st.name,
-                                contact if st.closes_hold else None, guard=st.entry_guard)
-        if st.closes_hold:
-            entry.checks = {f"impulse_{hold.labels[j]}": entry.impulse[kp + nf + j]
-                            for j in range(len(hold.labels))}
-        trailing_transitions += [
-            entry, make_transition(sysm, st.toe_off, st.name,
-                                   hold.phase if st.closes_hold else "II", None,
-                                   guard="toe_off", mode_after=arm_swing_knee)]
-        previous = st.name
-
-    # Phase II: single stance on the flat foot, swing leg free
-    ph2 = make_phase(sysm, F_q, "II", contact_II)
-    flat = foot1.flat_reading(ph2.lam, single_support=True)
-    toe2_low = foot2.lowest("toe")
-    ph2.outputs = {**flat.outputs, "clearance_toe2": toe2_low}
-    heel_strike_event = Event(
-        "heel_strike", foot2.lowest("heel"), -1, GUARD, "swing heel reaches the ground",
-        require=ca.dot(foot2.end_point("heel") - foot1.end_point("heel"), t_slope),
-        require_reason="heel_strike_behind")
-    scuff_event = Event("toe_scuff", toe2_low, -1, FAILURE, "swing toe hits the ground",
-                        arm_above=1e-4)
-    ph2.events = [heel_strike_event, scuff_event, *flat.events, *common_events]
+    ph1 = _double_support(w, "I", contacts.toe2, contacts.contact_I)
+    trailing_phases, trailing_transitions = _trailing_stages(w, foot)
+    ph2, swing = _single_support(w)
     phases = [ph1, *trailing_phases, ph2]
-
-    # the swing foot's hold closes in phase II (an impact) into the phase held, which is
-    # phase II with the hold's rows; the single support after it is that phase's
+    # the swing foot's hold closes in phase II (an impact) into the phase held; the single
+    # support after it is that phase's
     hold_transitions = []
-    previous = "II"
-    if hold:
-        ph2.events += [hold.guard, *hold.events]
-        contact_held = ContactSet(hold.phase, ca.vertcat(flat1_rows, hold_rows),
-                                  flat1_labels + hold_labels)
-        phh = make_phase(sysm, F_q, hold.phase, contact_held)
-        nf = flat1_rows.shape[0]
-        flat = foot1.flat_reading(phh.lam[:nf], single_support=True)
-        held = hold.reading(phh.lam[nf:])
-        phh.outputs = {**flat.outputs, "clearance_toe2": toe2_low, **held.outputs}
-        phh.events = [heel_strike_event, scuff_event, *flat.events, *held.events,
-                      *common_events]
-        phases.append(phh)
-        close = make_transition(sysm, hold.transition, "II", hold.phase, contact_held,
-                                guard=hold.guard.name)
-        close.checks = {f"impulse_{hold.labels[j]}": close.impulse[nf + j]
-                        for j in range(len(hold.labels))}
+    first_single = "II"
+    if contacts.hold:
+        held, close = _held_support(w, ph2, swing)
+        phases.append(held)
         hold_transitions.append(close)
-        previous = hold.phase
-    first_single = previous
+        first_single = held.name
+    stage_phases, stage_transitions = _stages(w, foot, swing, first_single)
+    phases += stage_phases
+    ph3 = _phase_III(w)
 
-    # the foot's single-support stages after II (e.g. heel off onto the toe), each ending
-    # at the swing heel's strike or in the next stage
-    stages = foot.stages(foot1, foot2, ground)
-    stage_transitions = []
-    for st in stages:
-        piv = st.pivot
-        kp = piv.rows.shape[0]
-        ph = make_phase(sysm, F_q, st.name, ContactSet(st.name, ca.vertcat(piv.rows, hold_rows),
-                                                       piv.labels + hold_labels))
-        N = ca.dot(ph.lam[0:2], n)
-        piv_read = piv.read(ph.lam[:kp])
-        held = hold.reading(ph.lam[kp:]) if hold else piv.read(ca.SX(0, 1))
-        ph.outputs = {f"N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
-                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras, "clearance_toe2": toe2_low,
-                      **piv_read.outputs, **held.outputs}
-        ph.events = [
-            heel_strike_event, scuff_event,
-            Event(f"{piv.tag}_lift", N, -1, FAILURE, "stance toe normal force reaches zero"),
-            *st.events, *piv.events, *piv_read.events, *held.events, *common_events,
-        ]
-        phases.append(ph)
-        # entering the stage is smooth (its contact already carries the load); the heel
-        # strike from it is the impact of phase II's, its stance heel already up
-        stage_transitions.append(make_transition(sysm, st.entry, previous, st.name, None,
-                                                 guard=st.entry_guard))
-        heel_st = make_transition(sysm, st.heel_strike, st.name, "III", contact_III,
-                                  guard="heel_strike")
-        heel_st.checks = {f"impulse_{toe1.tag}": ca.dot(heel_st.impulse[0:2], n),
-                          f"impulse_{heel2.tag}": ca.dot(heel_st.impulse[k1:k1 + 2], n)}
-        stage_transitions.append(heel_st)
-        previous = st.name
-
-    # Phase III: trailing toe and leading heel pivots
-    ph3 = make_phase(sysm, F_q, "III", contact_III)
-    lam = ph3.lam
-    N_toe1 = ca.dot(lam[0:2], n)
-    N_heel2 = ca.dot(lam[k1:k1 + 2], n)
-    kh = k1 + heel2.rows.shape[0]
-    toe1_read = toe1.read(lam[:k1])
-    held = hold.reading(lam[kh:]) if hold else toe1.read(ca.SX(0, 1))
-    ph3.outputs = {f"N_{toe1.tag}": N_toe1, f"N_{heel2.tag}": N_heel2,
-                   f"F_{toe1.tag}_x": lam[0], f"F_{toe1.tag}_y": lam[1],
-                   f"F_{heel2.tag}_x": lam[k1], f"F_{heel2.tag}_y": lam[k1 + 1],
-                   **toe1.extras, **heel2.extras, **toe1_read.outputs, **held.outputs}
-    ph3.events = [
-        Event("foot_strike", foot2.flat_guard(), -1, GUARD,
-              "leading foot rotates flat onto the ground"),
-        Event(f"{toe1.tag}_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
-        Event(f"{heel2.tag}_lift", N_heel2, -1, FAILURE,
-              "leading heel normal force reaches zero"),
-        *toe1.events, *heel2.events, *toe1_read.events, *held.events, *common_events,
-    ]
-
-    # transitions: toe-off (no impact, arms the swing knee), heel strike, foot strike + swap
     toe_off = make_transition(sysm, "toe_off", "I", "II", None, mode_after=arm_swing_knee,
                               guard="toe_off")
-    heel = make_transition(sysm, "heel_strike", first_single, "III", contact_III,
-                           guard="heel_strike")
-    heel.checks = {
-        f"impulse_{toe1.tag}": ca.dot(heel.impulse[0:2], n),
-        f"impulse_{heel2.tag}": ca.dot(heel.impulse[k1:k1 + 2], n),
-        "heel1_rise_speed": ca.dot(ca.jtimes(foot1.end_point("heel"), q, heel.qd_plus), n),
-    }
-    foot_strike = make_transition(sysm, "foot_strike", "III", "I", contact_foot_strike,
-                                  ends_step=True, guard="foot_strike")
-    imp = foot_strike.impulse
-    k = toe1.rows.shape[0]
-    checks, margins = foot2.flat_impulse_checks(imp[k:])
-    foot_strike.checks = {f"impulse_{toe1.tag}": ca.dot(imp[0:2], n), **checks}
-    foot_strike.margins = {f"impulse_{toe1.tag}": IMPULSE, **margins}
-    order = swap(ne)
-    q_new = ca.vertcat(*[q[i] for i in order[:6]], 0, 0, *[q[i] for i in order[8:]])
-    qd_new = ca.vertcat(*[qd[i] for i in order[:6]], 0, 0, *[qd[i] for i in order[8:]])
-    foot_strike.relabel = (q_new, qd_new)
-    foot_strike.mode_after = after_foot_strike
+    heel = _heel_strike(w, "heel_strike", first_single, stance_heel_down=True)
+    foot_strike = _foot_strike(w, q, qd, ne)
     transitions = [toe_off, *trailing_transitions, *hold_transitions, heel,
                    *stage_transitions, foot_strike]
     if ext:
@@ -404,9 +276,66 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
 
     section_to_full, full_to_section = section_maps(q, chain.knee2, foot2, a2["l_s"],
                                                     ground, p, leading=foot1)
-    toe1_point, heel1_point = foot1.end_point("toe"), foot1.end_point("heel")
-    toe2_point, heel2_point = foot2.end_point("toe"), foot2.end_point("heel")
-    common = {
+    common = _common_outputs(q, knees, hip_h, spring_energy, w)
+    return WalkerModel(
+        name=name, system=sysm, p=p, m=m, mode_keys=mode_keys,
+        initial_mode={**INITIAL_MODE, **(ext.initial_mode if ext else {})},
+        F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
+        phases=phases, transitions=transitions,
+        section_to_full=section_to_full, full_to_section=full_to_section,
+        state_names=STATE_KEYS, parameter_names=tuple(parameter_names),
+        step_length=ca.dot(foot2.end_point("toe") - foot1.end_point("toe"), t_slope),
+        common_outputs=common,
+        points=points, links=links, ground_normal=n,
+        q_names=Q_NAMES + tuple(f"{e}{i}" for i in (1, 2) for e in foot.extra_coordinates),
+        heel_strike_phase="III",
+    )
+
+
+def _forces(sysm: PlanarSystem, q, md, foot1: FootLeg, foot2: FootLeg, c1, c2, ext):
+    """(F_q, spring energy, damping power): the generalised forces of eq. (12) (N, N m:
+    gravity, velocity terms and the joint elements' torques), the elements' stored energy
+    (J) and the power their dampers dissipate (W); ``md``: the mode flags by name (SX)."""
+    q1, q2, q3, q4, qf1, qf2 = (q[i] for i in range(6))
+    # each joint element uses the compliance of the leg it belongs to; an extension may
+    # shift the ankle spring's rest angle (foot perpendicular to the shank)
+    elements = [*ankle_elements(qf1, q1, qf2, q4, c1, c2),
+                *knee_elements(md, q1, q2, q3, q4, c1, c2)]
+    if ext:
+        elements += ext.elements(c1, c2, md, {"ankle1": (qf1, q1), "ankle2": (qf2, q4)})
+    elements += [*foot1.elements(), *foot2.elements()]
+    F_torque, spring_energy, damping_power = total_torque(sysm, elements, sysm.qd)
+    return sysm.F_gravity + sysm.F_velocity + F_torque, spring_energy, damping_power
+
+
+def _common_events(q, qd, ground: Ground, hip, a1, c1, c2, ext
+                   ) -> tuple[list[Event], tuple, ca.SX]:
+    """The events of every phase: the knees' (damping switches, springs engaging and
+    disengaging), the fall (the ``hip`` point below half of leg 1's length above the
+    ground) and an extension's; with the knee angles (thigh - shank, rad) and the hip's
+    height (m), which the common outputs report (the same expressions)."""
+    q1, q2, q3, q4, qf1, qf2 = (q[i] for i in range(6))
+    theta1, theta2 = q2 - q1, q3 - q4
+    dtheta1, dtheta2 = qd[1] - qd[0], qd[2] - qd[3]
+    hip_h = ground.height(hip)
+    leg = a1["l_s"] + a1["l_t"]
+    fall = Event("fall", hip_h - 0.5 * leg, -1, FAILURE, "hip below half the leg length")
+    events = [*knee_events(1, theta1, dtheta1, c1), *knee_events(2, theta2, dtheta2, c2), fall]
+    if ext:
+        events += ext.events(c1, {"ankle1": qf1 - q1, "ankle2": qf2 - q4})
+    return events, (theta1, theta2), hip_h
+
+
+def _common_outputs(q, knees, hip_h, spring_energy, w: _Parts) -> dict[str, ca.SX]:
+    """The outputs of every phase: joint and segment angles (deg; hips from the slope's
+    normal), energies (J), the hip's and the feet ends' heights above the ground (m);
+    ``knees``, ``hip_h``: as ``_common_events`` gives them."""
+    q1, q2, q3, q4, qf1, qf2 = (q[i] for i in range(6))
+    theta1, theta2 = knees
+    gamma, ground, sysm = w.ground.gamma, w.ground, w.sysm
+    heel1_point = w.foot1.end_point("heel")
+    toe2_point, heel2_point = w.foot2.end_point("toe"), w.foot2.end_point("heel")
+    return {
         "knee1_deg": theta1 * 180 / math.pi, "knee2_deg": theta2 * 180 / math.pi,
         "hip1_deg": (q2 + gamma) * 180 / math.pi, "hip2_deg": (q3 + gamma) * 180 / math.pi,
         "thigh1_deg": q2 * 180 / math.pi, "thigh2_deg": q3 * 180 / math.pi,
@@ -416,18 +345,229 @@ def _assemble(name, g, a1, a2, m_h, c1, c2, p, gamma, parameter_names, ext=None,
         "heel2_height_m": ground.height(heel2_point),
         "heel1_height_m": ground.height(heel1_point),
     }
-    return WalkerModel(
-        name=name, system=sysm, p=p, m=m, mode_keys=mode_keys,
-        initial_mode={**INITIAL_MODE, **(ext.initial_mode if ext else {})},
-        F_q=F_q, spring_energy=spring_energy, damping_power=damping_power,
-        phases=phases, transitions=transitions,
-        section_to_full=section_to_full, full_to_section=full_to_section,
-        state_names=STATE_KEYS, parameter_names=tuple(parameter_names),
-        step_length=ca.dot(toe2_point - toe1_point, t_slope), common_outputs=common,
-        points=points, links=links, ground_normal=n,
-        q_names=Q_NAMES + tuple(f"{e}{i}" for i in (1, 2) for e in foot.extra_coordinates),
-        heel_strike_phase="III",
-    )
+
+
+def _contacts(foot1: FootLeg, foot2: FootLeg) -> _Contacts:
+    """The contacts of the step from the feet on leg 1 (stance) and leg 2 (swing)."""
+    toe2 = foot2.pivot("toe")
+    # the stance foot starts the step flat: its toe's own events must see it leave first
+    toe1 = foot1.pivot("toe", arm_first=True)
+    heel2 = foot2.pivot("heel")
+    flat1_rows, flat1_labels = foot1.flat_rows()
+    flat2_rows, flat2_labels = foot2.flat_rows()
+    contact_I = ContactSet("I", ca.vertcat(toe2.rows, flat1_rows), toe2.labels + flat1_labels)
+    contact_II = ContactSet("II", flat1_rows, flat1_labels)
+    # the held rows stay closed in every later contact of the step (its stages, phase III,
+    # the heel-strike impacts) until the swing foot lands
+    hold = foot2.swing_hold()
+    hold_rows, hold_labels = (hold.rows, hold.labels) if hold else (ca.SX(0, 1), ())
+    contact_III = ContactSet("III", ca.vertcat(toe1.rows, heel2.rows, hold_rows),
+                             toe1.labels + heel2.labels + hold_labels)
+    contact_foot_strike = ContactSet("foot_strike", ca.vertcat(toe1.rows, flat2_rows),
+                                     toe1.labels + flat2_labels)
+    return _Contacts(toe1, toe2, heel2, flat1_rows, flat1_labels, hold, hold_rows,
+                     hold_labels, contact_I, contact_II, contact_III, contact_foot_strike)
+
+
+def _double_support(w: _Parts, name: str, pivot: Pivot, contact: ContactSet,
+                    stage_events=(), closes_hold: bool = False) -> Phase:
+    """Phase ``name`` of double support before toe off: the stance foot flat, the trailing
+    foot on ``pivot``, whose normal force (N) reaching zero is the guard (toe off);
+    ``contact``: the pivot's rows, the flat stance foot's, then the swing foot's held rows
+    if the stage ``closes_hold``; ``stage_events``: a foot stage's own events."""
+    ph = make_phase(w.sysm, w.F_q, name, contact)
+    kp, nf = pivot.rows.shape[0], w.contacts.flat1_rows.shape[0]
+    N = ca.dot(ph.lam[0:2], w.ground.n)
+    flat = w.foot1.flat_reading(ph.lam[kp:kp + nf], single_support=False)
+    piv_read = _releasing(pivot.read(ph.lam[:kp]))
+    held = w.contacts.hold.reading(ph.lam[kp + nf:]) if closes_hold else _NOTHING
+    # the trailing contact's force is the releasing one (zero at toe off, the guard), so it
+    # is reported but is not a validity margin
+    ph.outputs = {**flat.outputs, f"release_N_{pivot.tag}": N, f"F_{pivot.tag}_x": ph.lam[0],
+                  f"F_{pivot.tag}_y": ph.lam[1], **pivot.extras, **piv_read.outputs,
+                  **held.outputs}
+    ph.events = [
+        Event("toe_off", N, -1, GUARD, "normal reaction at the trailing toe reaches zero"),
+        *flat.events, *stage_events, *pivot.events, *piv_read.events, *held.events,
+        *w.common_events,
+    ]
+    return ph
+
+
+def _trailing_stages(w: _Parts, foot: Foot) -> tuple[list[Phase], list[Transition]]:
+    """The foot's double-support stages after phase I (the trailing foot's contact changing)
+    and their transitions: each is entered from the one before and left at toe off into
+    phase II; a stage that closes the swing foot's hold is entered through that impact and
+    left into the held phase."""
+    c = w.contacts
+    phases, transitions = [], []
+    previous = "I"
+    for st in foot.trailing_stages(w.foot1, w.foot2, w.ground):
+        piv = st.pivot
+        kp, nf = piv.rows.shape[0], c.flat1_rows.shape[0]
+        extra_rows, extra_labels = (c.hold_rows, c.hold_labels) if st.closes_hold else (
+            ca.SX(0, 1), ())
+        contact = ContactSet(st.name, ca.vertcat(piv.rows, c.flat1_rows, extra_rows),
+                             piv.labels + c.flat1_labels + extra_labels)
+        phases.append(_double_support(w, st.name, piv, contact, st.events, st.closes_hold))
+        entry = make_transition(w.sysm, st.entry, previous, st.name,
+                                contact if st.closes_hold else None, guard=st.entry_guard)
+        if st.closes_hold:
+            entry.checks = _hold_impulse_checks(c.hold, entry.impulse, kp + nf)
+        transitions += [
+            entry, make_transition(w.sysm, st.toe_off, st.name,
+                                   c.hold.phase if st.closes_hold else "II", None,
+                                   guard="toe_off", mode_after=arm_swing_knee)]
+        previous = st.name
+    return phases, transitions
+
+
+def _single_support(w: _Parts) -> tuple[Phase, _Swing]:
+    """Phase II: single stance on the flat foot, the swing leg free until its heel strikes
+    the ground (the guard; it must land ahead of the stance heel)."""
+    ph2 = make_phase(w.sysm, w.F_q, "II", w.contacts.contact_II)
+    foot1, foot2 = w.foot1, w.foot2
+    flat = foot1.flat_reading(ph2.lam, single_support=True)
+    toe2_low = foot2.lowest("toe")
+    ph2.outputs = {**flat.outputs, "clearance_toe2": toe2_low}
+    heel_strike = Event(
+        "heel_strike", foot2.lowest("heel"), -1, GUARD, "swing heel reaches the ground",
+        require=ca.dot(foot2.end_point("heel") - foot1.end_point("heel"), w.ground.t),
+        require_reason="heel_strike_behind")
+    # the swing toe leaves the ground at toe off: it must rise before touching counts
+    scuff = Event("toe_scuff", toe2_low, -1, FAILURE, "swing toe hits the ground",
+                  arm_above=1e-4)
+    ph2.events = [heel_strike, scuff, *flat.events, *w.common_events]
+    return ph2, _Swing(heel_strike, scuff, toe2_low)
+
+
+def _held_support(w: _Parts, ph2: Phase, swing: _Swing) -> tuple[Phase, Transition]:
+    """The held phase (phase II with the swing foot's hold rows closed) and the impact
+    that closes them, from phase II at the hold's guard (adds that guard and the free
+    swing's failures to ``ph2``)."""
+    c = w.contacts
+    hold = c.hold
+    ph2.events += [hold.guard, *hold.events]
+    contact_held = ContactSet(hold.phase, ca.vertcat(c.flat1_rows, c.hold_rows),
+                              c.flat1_labels + c.hold_labels)
+    phh = make_phase(w.sysm, w.F_q, hold.phase, contact_held)
+    nf = c.flat1_rows.shape[0]
+    flat = w.foot1.flat_reading(phh.lam[:nf], single_support=True)
+    held = hold.reading(phh.lam[nf:])
+    phh.outputs = {**flat.outputs, "clearance_toe2": swing.clearance, **held.outputs}
+    phh.events = [swing.heel_strike, swing.scuff, *flat.events, *held.events,
+                  *w.common_events]
+    close = make_transition(w.sysm, hold.transition, "II", hold.phase, contact_held,
+                            guard=hold.guard.name)
+    close.checks = _hold_impulse_checks(hold, close.impulse, nf)
+    return phh, close
+
+
+def _stages(w: _Parts, foot: Foot, swing: _Swing, previous: str
+            ) -> tuple[list[Phase], list[Transition]]:
+    """The foot's single-support stages after phase II (e.g. heel off onto the toe), the
+    first entered from phase ``previous``: each ends at the swing heel's strike (an impact
+    into phase III) or in the next stage."""
+    c = w.contacts
+    hold = c.hold
+    phases, transitions = [], []
+    for st in foot.stages(w.foot1, w.foot2, w.ground):
+        piv = st.pivot
+        kp = piv.rows.shape[0]
+        ph = make_phase(w.sysm, w.F_q, st.name,
+                        ContactSet(st.name, ca.vertcat(piv.rows, c.hold_rows),
+                                   piv.labels + c.hold_labels))
+        N = ca.dot(ph.lam[0:2], w.ground.n)
+        piv_read = piv.read(ph.lam[:kp])
+        held = hold.reading(ph.lam[kp:]) if hold else piv.read(ca.SX(0, 1))
+        ph.outputs = {f"N_{piv.tag}": N, f"F_{piv.tag}_x": ph.lam[0],
+                      f"F_{piv.tag}_y": ph.lam[1], **piv.extras,
+                      "clearance_toe2": swing.clearance, **piv_read.outputs, **held.outputs}
+        ph.events = [
+            swing.heel_strike, swing.scuff,
+            Event(f"{piv.tag}_lift", N, -1, FAILURE, "stance toe normal force reaches zero"),
+            *st.events, *piv.events, *piv_read.events, *held.events, *w.common_events,
+        ]
+        phases.append(ph)
+        # entering the stage is smooth (its contact already carries the load); the heel
+        # strike from it is the impact of phase II's, its stance heel already up
+        transitions.append(make_transition(w.sysm, st.entry, previous, st.name, None,
+                                           guard=st.entry_guard))
+        transitions.append(_heel_strike(w, st.heel_strike, st.name, stance_heel_down=False))
+        previous = st.name
+    return phases, transitions
+
+
+def _phase_III(w: _Parts) -> Phase:
+    """Phase III: double support on the trailing toe and the leading heel pivots, until the
+    leading foot rotates flat (the guard: foot strike); either normal force (N) reaching
+    zero is a failure."""
+    c = w.contacts
+    toe1, heel2, n = c.toe1, c.heel2, w.ground.n
+    ph3 = make_phase(w.sysm, w.F_q, "III", c.contact_III)
+    lam = ph3.lam
+    k1 = toe1.rows.shape[0]
+    N_toe1 = ca.dot(lam[0:2], n)
+    N_heel2 = ca.dot(lam[k1:k1 + 2], n)
+    kh = k1 + heel2.rows.shape[0]
+    toe1_read = toe1.read(lam[:k1])
+    held = c.hold.reading(lam[kh:]) if c.hold else toe1.read(ca.SX(0, 1))
+    ph3.outputs = {f"N_{toe1.tag}": N_toe1, f"N_{heel2.tag}": N_heel2,
+                   f"F_{toe1.tag}_x": lam[0], f"F_{toe1.tag}_y": lam[1],
+                   f"F_{heel2.tag}_x": lam[k1], f"F_{heel2.tag}_y": lam[k1 + 1],
+                   **toe1.extras, **heel2.extras, **toe1_read.outputs, **held.outputs}
+    ph3.events = [
+        Event("foot_strike", w.foot2.flat_guard(), -1, GUARD,
+              "leading foot rotates flat onto the ground"),
+        Event(f"{toe1.tag}_lift", N_toe1, -1, FAILURE, "trailing toe normal force reaches zero"),
+        Event(f"{heel2.tag}_lift", N_heel2, -1, FAILURE,
+              "leading heel normal force reaches zero"),
+        *toe1.events, *heel2.events, *toe1_read.events, *held.events, *w.common_events,
+    ]
+    return ph3
+
+
+def _heel_strike(w: _Parts, name: str, source: str, stance_heel_down: bool) -> Transition:
+    """The heel-strike impact ``name`` from single-support phase ``source`` into phase III:
+    its checks are the trailing toe's and leading heel's normal impulses (N s) and, when
+    the stance heel is still down (``stance_heel_down``), its rise speed after the impact
+    (m/s; a heel pushed into the ground breaks the gait pattern)."""
+    c, n = w.contacts, w.ground.n
+    k1 = c.toe1.rows.shape[0]
+    heel = make_transition(w.sysm, name, source, "III", c.contact_III, guard="heel_strike")
+    heel.checks = {f"impulse_{c.toe1.tag}": ca.dot(heel.impulse[0:2], n),
+                   f"impulse_{c.heel2.tag}": ca.dot(heel.impulse[k1:k1 + 2], n)}
+    if stance_heel_down:
+        heel.checks["heel1_rise_speed"] = ca.dot(
+            ca.jtimes(w.foot1.end_point("heel"), w.sysm.q, heel.qd_plus), n)
+    return heel
+
+
+def _foot_strike(w: _Parts, q, qd, ne: int) -> Transition:
+    """The foot-strike impact from phase III (the leading foot landing flat), then the leg
+    swap into phase I of the next step (the Poincare section; ``ne``: the foot's extra
+    coordinates per leg); its checks are the trailing toe's normal impulse (N s) and the
+    foot's flat-impact checks."""
+    c, n = w.contacts, w.ground.n
+    foot_strike = make_transition(w.sysm, "foot_strike", "III", "I", c.contact_foot_strike,
+                                  ends_step=True, guard="foot_strike")
+    imp = foot_strike.impulse
+    k = c.toe1.rows.shape[0]
+    checks, margins = w.foot2.flat_impulse_checks(imp[k:])
+    foot_strike.checks = {f"impulse_{c.toe1.tag}": ca.dot(imp[0:2], n), **checks}
+    foot_strike.margins = {f"impulse_{c.toe1.tag}": IMPULSE, **margins}
+    order = swap(ne)
+    q_new = ca.vertcat(*[q[i] for i in order[:6]], 0, 0, *[q[i] for i in order[8:]])
+    qd_new = ca.vertcat(*[qd[i] for i in order[:6]], 0, 0, *[qd[i] for i in order[8:]])
+    foot_strike.relabel = (q_new, qd_new)
+    foot_strike.mode_after = after_foot_strike
+    return foot_strike
+
+
+def _hold_impulse_checks(hold: Hold, impulse, offset: int) -> dict[str, ca.SX]:
+    """The impulses (N m s) of the swing foot's held rows, at ``offset`` in ``impulse``: an
+    impact closing them must push the joint onto its stop."""
+    return {f"impulse_{hold.labels[j]}": impulse[offset + j] for j in range(len(hold.labels))}
 
 
 #: the reading of no rows
