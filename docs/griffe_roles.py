@@ -1,4 +1,5 @@
-"""Griffe extension of the API reference: the package's reST-style roles become links.
+"""Griffe extensions of the API reference: what it renders, and the package's reST-style
+roles as links.
 
 The docstrings cross-reference with Sphinx roles (``:func:`fit_gait```, ``:class:`~a.b.C```,
 ``:mod:`.compile```). Markdown does not know them, so before mkdocstrings renders a docstring
@@ -6,20 +7,57 @@ every role is resolved in the scope of the object that holds it (relative module
 against its package) and replaced by a mkdocstrings cross-reference to the object's own
 page. A role that names nothing in ``pdw_casadi`` is a warning, and ``mkdocs build
 --strict`` fails on it: a docstring cannot name a function that does not exist. Targets
-outside the package (``numpy.ndarray``) and private ones (not rendered) stay code spans.
+outside the package (``numpy.ndarray``) and ones the reference does not render (private or
+undocumented: :func:`rendered`) stay code spans.
 A reST literal-block marker (``text::`` before an indented block) becomes ``text:``.
+
+The curated API (:class:`CuratedApi`, run first): the reference renders with mkdocstrings'
+``filters: public``, and this extension decides what is public. The page ``api/index.md``
+holds the public API a user calls, by job: each ``::: path`` on it is that object's one
+entry, so its module page leaves it out. The package's lazily resolved names (``_LAZY`` of
+``pdw_casadi/__init__.py``, ``from pdw_casadi import fit_gait``) become members of the
+package, so that the index renders them under the name a user imports; their module pages
+keep them at home too. A name imported into a module (a re-export, even one in ``__all__``)
+is documented at its home only; a private name (``_x``, ``__x__``) nowhere; any other name
+defined in the package is public (a module's ``__all__`` hides nothing), and is rendered when
+it has a docstring (``show_if_no_docstring: false``).
 """
 
 from __future__ import annotations
 
+import ast
 import logging
 import re
+from pathlib import Path
 
 import griffe
 
 LOG = logging.getLogger("mkdocs.plugins.pdw_docs.roles")
 ROLE = re.compile(r":(?:py:)?(func|class|mod|meth|data|attr|obj|exc|const):`(~?)([^`]+)`")
 PACKAGE = "pdw_casadi"
+#: the API index page; its ``::: path`` lines are the entries of the public API
+INDEX = Path(__file__).resolve().parent / "api" / "index.md"
+DIRECTIVE = re.compile(r"^::: *([\w.]+) *$", re.M)
+#: where :class:`CuratedApi` marks an object rendered on the API index (``Object.extra``)
+KEY = "pdw_docs"
+
+
+def index_entries(text: str) -> list[str]:
+    """The dotted paths of the ``::: path`` entries of a page, in order."""
+    return DIRECTIVE.findall(text)
+
+
+def rendered(obj: griffe.Object) -> bool:
+    """Whether the reference renders ``obj`` (a non-alias object), so a link to it resolves:
+    it is an entry of the API index, or it and every parent below its page's root are public
+    with docstrings (mkdocstrings' ``filters: public`` and ``show_if_no_docstring: false``)."""
+    while obj.parent is not None:
+        if obj.extra.get(KEY, {}).get("index"):
+            return True
+        if not (obj.is_public and obj.has_docstrings):
+            return False
+        obj = obj.parent
+    return True
 
 
 def _private(path: str) -> bool:
@@ -96,12 +134,73 @@ def convert(obj: griffe.Object, text: str, package: str = PACKAGE) -> str:
             LOG.warning("%s: docstring names %r, which is not in %s", obj.path, target,
                         package)
             return f"`{shown}`"
-        if _private(path):
+        if _private(path) or not rendered(obj.modules_collection[path]):
             return f"`{shown}`"
         return f"[`{shown}`][{path}]"
 
     text = ROLE.sub(link, text)
     return re.sub(r"(\S)::\n", r"\1:\n", text)
+
+
+class CuratedApi(griffe.Extension):
+    """Decide what the reference renders (module docstring): the package's lazy names become
+    its members; an entry of the API index is rendered there only, not again on its module
+    page; a re-export at its home only; a private name nowhere. ``index``: the API index
+    page (default :data:`INDEX`).
+    Defined before :class:`RolesToLinks`, so that the roles link only what is rendered."""
+
+    def __init__(self, package: str = PACKAGE, index: str | None = None) -> None:
+        super().__init__()
+        self.package = package
+        self.index = Path(index) if index else INDEX
+
+    def on_package(self, *, pkg: griffe.Module, **kwargs) -> None:
+        if pkg.name != self.package:
+            return
+        face = self._face(pkg)
+        homed: set[str] = set()
+        for path in index_entries(self.index.read_text(encoding="utf-8")):
+            try:
+                obj = pkg.modules_collection[path]
+            except KeyError:
+                continue  # mkdocstrings fails the build on it, naming the page
+            if obj.is_alias or obj is pkg:
+                continue  # the package and its face: documented at home as well
+            obj.extra[KEY]["index"] = True
+            homed.add(obj.path)
+        self._walk(pkg, homed, face, set())
+
+    @staticmethod
+    def _face(pkg: griffe.Module) -> set[str]:
+        """Add the package's lazily resolved names (``_LAZY``: name -> module) as aliases."""
+        lazy = pkg.members.get("_LAZY")
+        if lazy is None or lazy.is_alias or getattr(lazy, "value", None) is None:
+            return set()
+        try:
+            table = ast.literal_eval(str(lazy.value))
+        except (ValueError, SyntaxError):
+            LOG.warning("%s._LAZY is not a literal table of names", pkg.path)
+            return set()
+        for name, module in table.items():
+            if name not in pkg.members:
+                pkg.set_member(name, griffe.Alias(name, f"{module}.{name}", parent=pkg))
+            pkg.members[name].public = True
+        return set(table)
+
+    def _walk(self, obj: griffe.Object, homed: set[str], face: set[str],
+              seen: set[str]) -> None:
+        if obj.path in seen:
+            return
+        seen.add(obj.path)
+        for name, member in obj.members.items():
+            if member.is_alias:
+                if not (obj.parent is None and name in face):
+                    member.public = False  # an import or a re-export: at its home only
+                continue
+            # a module's __all__ hides nothing documented: some lag behind their module
+            # (TimingError, raised to users, is not in engine.errors.__all__)
+            member.public = not (name.startswith("_") or member.path in homed)
+            self._walk(member, homed, face, seen)
 
 
 class RolesToLinks(griffe.Extension):

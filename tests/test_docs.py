@@ -446,3 +446,164 @@ def test_the_install_page_matches_pyproject():
                  'pip install -e .', 'pip install -e ".[dev]"', "git clone", "venv"):
         assert word in text, word
     assert "(install.md)" in (DOCS / "index.md").read_text(encoding="utf-8")
+
+
+# -- the curated API reference: the public API first, by job; every entry with its own text,
+# -- every object once ---------------------------------------------------------------------
+#: the most entries without text of their own that one API page may show; measured after the
+#: curation (docs/griffe_roles.py, CuratedApi; show_if_no_docstring: false): 0 on every page
+#: (before it: 1,075 of 2,104 entries, e.g. StabilityRow.n, o_X)
+MAX_BARE_ENTRIES = 0
+
+
+class _ApiEntries:
+    """The mkdocstrings entries of a built page: (heading id, characters of its own text), the
+    text of its ``doc-contents`` outside its members (``doc-children``, nested entries) and
+    outside the class-bases line."""
+
+    def __init__(self, html: str) -> None:
+        from html.parser import HTMLParser
+
+        entries: list[list] = []
+        divs: list[list] = []  # [kind, entry] of every open div
+        state = {"bases": False}
+
+        class Parser(HTMLParser):
+            def handle_starttag(self, tag, attrs):
+                cls = (dict(attrs).get("class") or "").split()
+                if tag == "p" and "doc-class-bases" in cls:
+                    state["bases"] = True
+                if tag == "div":
+                    kind = next((k for k in ("doc-object", "doc-contents", "doc-children")
+                                 if "doc" in cls and k in cls), "other")
+                    divs.append([kind, None])
+                elif re.fullmatch(r"h[1-6]", tag) and "doc-heading" in cls \
+                        and dict(attrs).get("id"):
+                    entry = [dict(attrs)["id"], 0]
+                    entries.append(entry)
+                    owner = next((d for d in reversed(divs) if d[0] == "doc-object"), None)
+                    if owner is not None:
+                        owner[1] = entry
+
+            def handle_endtag(self, tag):
+                if tag == "p":
+                    state["bases"] = False
+                if tag == "div" and divs:
+                    divs.pop()
+
+            def handle_data(self, data):
+                if not data.strip() or state["bases"]:
+                    return
+                doc = [d for d in divs if d[0] != "other"]
+                if len(doc) >= 2 and doc[-1][0] == "doc-contents" \
+                        and doc[-2][0] == "doc-object" and doc[-2][1] is not None:
+                    doc[-2][1][1] += len(data.strip())
+
+        Parser(convert_charrefs=True).feed(html)
+        self.entries = [(name, chars) for name, chars in entries]
+        self.html = html
+
+
+@pytest.fixture(scope="module")
+def api_site(tmp_path_factory):
+    """The site, built strictly once for the API tests."""
+    for module in ("mkdocs", "mkdocstrings", "mkdocstrings_handlers.python", "material",
+                   "griffe_sphinx", "yaml"):
+        pytest.importorskip(module, reason="the docs extra is not installed")
+    site = tmp_path_factory.mktemp("api_site") / "site"
+    env = dict(os.environ, NO_MKDOCS_2_WARNING="1")
+    proc = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(ROOT / "mkdocs.yml"),
+         "-d", str(site)], cwd=ROOT, capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-6000:]
+    return site
+
+
+def _api_pages(site: Path) -> dict[str, _ApiEntries]:
+    pages = {str(p.relative_to(site)): _ApiEntries(p.read_text(encoding="utf-8"))
+             for p in sorted((site / "api").rglob("index.html"))}
+    assert "api/index.html" in pages and len(pages) > 1, sorted(pages)
+    return pages
+
+
+def test_the_api_index_leads_with_the_public_api(api_site):
+    """The API reference opens on its index page, the layer pages after it under "Modules";
+    the index renders the package, then every name of ``pdw_casadi.__all__`` (under the name a
+    user imports, ``pdw_casadi.fit_gait``) and every ``::: path`` entry of api/index.md, each
+    with text of its own, and only then its "Modules" section."""
+    import yaml
+
+    import pdw_casadi
+
+    nav = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))["nav"]
+    api = next(item["API reference"] for item in nav
+               if isinstance(item, dict) and "API reference" in item)
+    assert api[0] == "api/index.md", api
+    modules = [page for item in api[1]["Modules"] for page in item.values()]
+    layers = _load(ROOT / "tests" / "test_imports.py", "_layers_of_test_imports").LAYERS
+    assert api[1:] == [api[1]] and modules == [f"api/{layer}.md" for layer in layers], api
+
+    page = _api_pages(api_site)["api/index.html"]
+    own = dict(page.entries)
+    names = [name for name in pdw_casadi.__all__ if name != "__version__"]
+    assert {"load_problem", "simulate", "poincare_map", "find_fixed_point", "fit_gait",
+            "FitOptions"} <= set(names), names
+    missing = [n for n in names if not own.get(f"pdw_casadi.{n}")]
+    assert not missing, f"the API index lacks (or has no text for) {missing}"
+    index = (DOCS / "api" / "index.md").read_text(encoding="utf-8")
+    paths = re.findall(r"^::: *([\w.]+) *$", index, flags=re.M)
+    assert paths[0] == "pdw_casadi" and page.entries[0][0] == "pdw_casadi"
+    unrendered = [p for p in paths if p not in own]
+    assert not unrendered, f"entries of api/index.md not rendered: {unrendered}"
+    headings = [name for name, _ in page.entries]
+    assert [h for h in headings if h in paths] == paths, "the index renders its entries in order"
+    last_entry = page.html.rindex('class="doc doc-heading"')
+    assert page.html.index('id="modules"') > last_entry, "the modules come after the API"
+
+
+def test_every_api_entry_has_its_own_text_and_appears_once(api_site):
+    """No API page shows more than MAX_BARE_ENTRIES entries without text of their own; no
+    heading id appears twice across the API pages; and no object is rendered twice under two
+    names (a re-export at its home only, an index entry not again on its module page), except
+    the package's own names: ``pdw_casadi.fit_gait`` on the index, ``fit_gait`` at home on its
+    module's page (the gait page keeps ``find_fixed_point``: test_site_builds_strictly)."""
+    from collections import Counter, defaultdict
+
+    import griffe
+
+    import pdw_casadi
+
+    pages = _api_pages(api_site)
+    bare = {page: [name for name, chars in entries.entries if not chars]
+            for page, entries in pages.items()}
+    over = {page: names for page, names in bare.items() if len(names) > MAX_BARE_ENTRIES}
+    assert not over, f"entries without text of their own: {over}"
+
+    ids = Counter(name for entries in pages.values() for name, _ in entries.entries)
+    assert len(ids) > 500, len(ids)  # the whole package, not an empty reference
+    twice = sorted(name for name, n in ids.items() if n > 1)
+    assert not twice, f"rendered more than once: {twice}"
+
+    lazy = pdw_casadi._LAZY
+    collection = griffe.GriffeLoader(search_paths=[str(ROOT)]).load("pdw_casadi") \
+        .modules_collection
+    by_object: dict[str, list[str]] = defaultdict(list)
+    unknown = []
+    for name in ids:
+        head, _, rest = name.removeprefix("pdw_casadi.").partition(".")
+        path = f"{lazy[head]}.{head}" + (f".{rest}" if rest else "") \
+            if name.startswith("pdw_casadi.") and head in lazy else name
+        try:
+            obj = collection[path]
+            by_object[obj.final_target.path if obj.is_alias else obj.path].append(name)
+        except (KeyError, griffe.AliasResolutionError):
+            unknown.append(name)
+    assert not unknown, f"headings naming nothing in the package: {unknown}"
+
+    def face(name: str) -> bool:
+        head = name.removeprefix("pdw_casadi.").split(".")[0]
+        return name.startswith("pdw_casadi.") and head in lazy
+
+    doubled = {home: names for home, names in by_object.items() if len(names) > 1
+               and not (len(names) == 2 and sum(map(face, names)) == 1)}
+    assert not doubled, f"an object rendered under two names: {doubled}"
