@@ -261,6 +261,10 @@ def test_a_zigzag_across_the_bound_stalls_and_a_feasible_tail_does_not():
     assert not rule.stalled(_iterates(np.full(40, 0.2033), tail))
     off = Stall(window=10, rtol=1e-3, min_infeasibility=1e-5)
     assert not off.stalled(_iterates(f, inf))
+    # feasible for two iterations, then infeasible and still improving: it left the
+    # feasible region and has not come back (wandering, the first form's case)
+    left = np.r_[np.full(3, 1e-7), 10 ** rng.uniform(-3, -1.5, 8)]
+    assert not rule.zigzag(_iterates(1.1264 - 2e-3 * np.arange(11) / 11, left))
 
 
 def test_progress_keeps_nearly_feasible_iterates_with_their_multipliers_and_stops_a_stall():

@@ -134,11 +134,12 @@ class FitOptions:
     #: (:attr:`~pdw_casadi.fit.result.Candidate.certified`): stable and valid as checked, but
     #: not shown to be the NLP's optimum
     keep_best_feasible: bool = True
-    #: when a solve gives no stable valid gait (it stopped short, stalled, or its answer
-    #: failed the simulator's checks), the fit polishes the ``polish_keep`` lowest-objective
+    #: when a solve stops short of convergence (its limit, a stall) or gives no stable
+    #: valid gait, the fit polishes the ``polish_keep`` lowest-objective
     #: iterates whose largest row or bound violation was at most ``polish_infeasibility``
     #: on the simulator (Newton on the Poincare map at the iterate's parameters from its
-    #: section state) and takes the best stable valid one, marked not certified (None: off)
+    #: section state) and takes the best stable valid one if it fits better than the
+    #: solve's best feasible iterate, marked not certified (None: off)
     polish_infeasibility: float | None = 1e-2
     polish_keep: int = 3
     #: a solve is stopped as stalled when over ``stall_window`` iterations its objective

@@ -89,7 +89,8 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
     that stops short of convergence but passed through iterates that held every row
     (``FitOptions.keep_best_feasible``) gives the best of them, checked like an answer and
     marked not certified; it ends the rounds too. When a solve gives no accepted gait that
-    way, its nearly feasible iterates are polished on the simulator (:func:`polish_iterates`).
+    way, or stops short of convergence, its nearly feasible iterates are polished on the
+    simulator (:func:`polish_iterates`) and the better gait (mean R^2) is its answer.
     A solve stalled wandering (``FitOptions.stall_window``) is followed by a warm restart of
     the same NLP from the least infeasible of its kept iterates, with that iterate's
     multipliers (``stall_restarts`` per start); one stalled zig-zagging on a bound
@@ -127,9 +128,14 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
         cand = fit.check(nlp, out) if usable else None
         if cand is not None:
             cand.objective = out["objective"]
-        if (cand is None or not cand.good) and out.get("near"):
-            polished = polish_iterates(fit, nlp, solver, out, opts.targets(), log=log)
-            if polished is not None:
+        # a solve that stopped short (its limit, a stall) also polishes its nearly feasible
+        # iterates: its best feasible iterate can lie far behind them (a stride solve
+        # zig-zagging on the bound had its last feasible one at iteration 4 of 202)
+        if out.get("near") and (cand is None or not cand.good or not out["success"]):
+            targets = opts.targets()
+            polished = polish_iterates(fit, nlp, solver, out, targets, log=log)
+            if polished is not None and (cand is None or not cand.good or
+                                         polished.mean_score(targets) > cand.mean_score(targets)):
                 cand, fallback = polished, polished.polished_from
         rho = cand.fixed_point.spectral_radius if cand else math.nan
         hist = out["history"]

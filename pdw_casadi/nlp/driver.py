@@ -196,10 +196,11 @@ class Stall:
       ``progress`` times the least one before them (IPOPT is wandering, not converging);
     - zig-zag on a bound (with ``plateau_infeasibility``): the best objective among the
       nearly feasible iterates (largest violation at most ``plateau_infeasibility``) fell by
-      at most ``rtol`` of its size, while some iterate of the window strayed to an
-      infeasibility of ``wander`` or more. IPOPT then crosses the stability bound back and
-      forth: the infeasible iterates' lower objective hides the plateau from the first
-      form, and a converging tail (every iterate feasible) never shows the stray.
+      at most ``rtol`` of its size, while an iterate of the window strayed to an
+      infeasibility of ``wander`` or more and a nearly feasible one came after it. IPOPT
+      then crosses the stability bound back and forth: the infeasible iterates' lower
+      objective hides the plateau from the first form, and a converging tail (every
+      iterate feasible) never shows the stray.
     """
 
     window: int
@@ -235,7 +236,11 @@ class Stall:
                        if h.infeasibility <= self.plateau_infeasibility]
         if not near or not near_before:
             return False
-        if max(h.infeasibility for h in last) < self.wander:
+        strays = [i for i, h in enumerate(last) if h.infeasibility >= self.wander]
+        # back and forth: a nearly feasible iterate after a stray (a solve that left the
+        # feasible region once and has not come back is wandering, not zig-zagging)
+        if not strays or all(h.infeasibility > self.plateau_infeasibility
+                             for h in last[strays[0] + 1:]):
             return False
         best = min(near)
         return min(near_before) - best <= self.rtol * max(abs(best), 1e-12)
