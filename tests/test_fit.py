@@ -263,8 +263,11 @@ def test_a_zigzag_across_the_bound_stalls_and_a_feasible_tail_does_not():
     assert not off.stalled(_iterates(f, inf))
     # feasible for two iterations, then infeasible and still improving: it left the
     # feasible region and has not come back (wandering, the first form's case)
-    left = np.r_[np.full(3, 1e-7), 10 ** rng.uniform(-3, -1.5, 8)]
-    assert not rule.zigzag(_iterates(1.1264 - 2e-3 * np.arange(11) / 11, left))
+    left = np.r_[np.full(13, 1e-7), 10 ** rng.uniform(-3, -1.5, 8)]
+    assert not rule.zigzag(_iterates(1.1264 - 2e-3 * np.arange(21) / 21, left))
+    # within the first two windows the start is the only feasible iterate before the
+    # window: an excursion that comes back no better is not yet a plateau
+    assert not rule.stalled(_iterates(f[:20], inf[:20]))
 
 
 def test_progress_keeps_nearly_feasible_iterates_with_their_multipliers_and_stops_a_stall():
