@@ -71,13 +71,20 @@ TEST_FUNCTIONS = {"fold": phi_fold, "period_doubling": phi_period_doubling,
                   "neimark_sacker": phi_neimark_sacker}
 
 
+#: multipliers closer than this (absolute) count as a complex-conjugate pair, and an
+#: imaginary part above REAL_TOL as complex (:func:`is_neimark_sacker`)
+CONJUGATE_TOL = 1e-6
+REAL_TOL = 1e-9
+
+
 def is_neimark_sacker(mu) -> bool:
     """At a zero of phi_NS: is the pair with mu_i mu_j closest to 1 a complex-conjugate pair
     (a Neimark-Sacker point) rather than two reals (a neutral saddle)?"""
     mu = np.asarray(mu)
     prod, i, j = _pairs(mu)
     k = int(np.argmin(np.abs(prod - 1.0)))
-    return bool(abs(mu[i[k]].imag) > 1e-9 and abs(mu[i[k]] - np.conj(mu[j[k]])) < 1e-6)
+    return bool(abs(mu[i[k]].imag) > REAL_TOL
+                and abs(mu[i[k]] - np.conj(mu[j[k]])) < CONJUGATE_TOL)
 
 
 def outside(mu) -> int:

@@ -47,6 +47,9 @@ from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem, Impact
 
 RADIUS_NORM = 32  # q of the smooth spectral-radius bound
+#: relative gap |lambda_2| - |lambda_3| (of |lambda_1|) below which the leading pair is not
+#: separated from the rest and :func:`schur_radius` falls back to :func:`smooth_radius`
+PAIR_SEPARATION = 1e-6
 
 
 def smooth_radius(J: np.ndarray, q: int = RADIUS_NORM) -> tuple[float, np.ndarray]:
@@ -134,7 +137,7 @@ def schur_radius(J: np.ndarray, q: int = RADIUS_NORM,
     lam = np.linalg.eigvals(J)
     mag = np.sort(np.abs(lam))[::-1]
     top = mag[0]
-    if n < 3 or top == 0 or not (mag[1] - mag[2]) > 1e-6 * top:
+    if n < 3 or top == 0 or not (mag[1] - mag[2]) > PAIR_SEPARATION * top:
         return smooth_radius(J, q)
     A = J / top
     cut = 0.5 * (mag[1] + mag[2]) / top
