@@ -24,7 +24,7 @@ from pdw_casadi.model.walkers import FAMILIES
 from pdw_casadi.model.walkers import humanlike_6link_ankle as ankle
 from pdw_casadi.model.walkers.humanlike_6link import build, register_six_link
 
-#: a stiff, late clutch spring on the shipped gait (found by scripts/toes_seed.py): the
+#: a stiff, late clutch spring on the shipped gait (found by pdw-seed toes): the
 #: trailing toes roll onto their tip and leave the ground before the MTP joint reaches its
 #: stop, the swing toes spring back onto it, and the stance heel lifts in single support
 #: (phases I, I_tip, II, II_stop, II_mtp); the step then fails at the heel strike (the

@@ -20,7 +20,7 @@ from pdw_casadi.report.plots import phase_spans, snapshot_rows
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS_ALL = sorted(p.stem for p in (ROOT / "problems").glob("*.toml"))
-#: the ankle-extension study's problem files (scripts/timing_study.py) run with -m slow; the
+#: the ankle-extension study's problem files (pdw-compare) run with -m slow; the
 #: shipped extension (humanlike_6link_ankle) runs by default
 STUDY_VARIANTS = {n for n in PROBLEMS_ALL if n.startswith("humanlike_6link_ankle_")}
 #: the rolling-foot and toe-foot walkers' commands run with -m slow too (39 s and about a

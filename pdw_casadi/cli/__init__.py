@@ -32,7 +32,7 @@ from pdw_casadi.cli.contract import fail
 __all__ = ["COMMANDS", "USER_ERRORS", "cohort_main", "common_parser", "fit_main",
            "fixed_point_main",
            "load_cli_problem", "load_fit_start", "main", "simulate_main", "sweep_main",
-           "scale_main", "design_main", "atlas_main"]
+           "scale_main", "design_main", "atlas_main", "seed_main", "compare_main"]
 
 #: where each public name lives; imported on first use, so that a console script can take
 #: over Ctrl-C before the seconds of numerics imports (:mod:`pdw_casadi.cli.scripts`)
@@ -40,6 +40,7 @@ _NAMES = {
     "simulate_main": "simulate", "fixed_point_main": "fixed_point", "fit_main": "fit",
     "load_fit_start": "fit", "sweep_main": "sweep", "scale_main": "scale",
     "design_main": "design", "atlas_main": "atlas", "cohort_main": "cohort",
+    "seed_main": "seed", "compare_main": "compare",
     "common_parser": "common",
     "load_cli_problem": "common", "USER_ERRORS": "contract", "fail": "contract",
 }
@@ -69,6 +70,8 @@ COMMANDS: dict[str, Callable[[Sequence[str] | None], int]] = {
     "design": _command("design_main"),
     "atlas": _command("atlas_main"),
     "cohort": _command("cohort_main"),
+    "seed": _command("seed_main"),
+    "compare": _command("compare_main"),
 }
 
 

@@ -43,6 +43,8 @@ scale = _script("scale")
 design = _script("design")
 atlas = _script("atlas")
 cohort = _script("cohort")
+seed = _script("seed")
+compare = _script("compare")
 
 
 def dispatch() -> None:

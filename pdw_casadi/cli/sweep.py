@@ -29,12 +29,16 @@ from pdw_casadi.cli.contract import (
     run,
 )
 from pdw_casadi.cli.fit import load_fit_start
+from pdw_casadi.report.sweep_timing_report import sweep_timing_lines
 from pdw_casadi.studies.sweep_run import SweepRequest, check_sweep, run_sweep
+from pdw_casadi.studies.sweep_timing import check_sweep_timing, sweep_timing
 
 if TYPE_CHECKING:  # annotations only
     from pdw_casadi.model.gait_data import GaitCurves
     from pdw_casadi.model.problem import Problem
+    from pdw_casadi.model.units import Units
     from pdw_casadi.report.sweep_report import SweepRows
+    from pdw_casadi.studies.sweep_run import SweepRun
 
 
 def sweep_main(argv: Sequence[str] | None = None) -> int:
@@ -52,9 +56,12 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
     ``sweep.csv`` of an earlier run untouched and its own rows in ``sweep.partial.csv``.
     ``--workers K`` spreads independent work (grid points, the two directions from an
     interior start) over K processes; ``--scheduler ADDRESS`` over a Dask cluster (checked
-    to answer before anything is written). Exit code 1 when the start has no gait.
-    The sweep itself is the workflow :func:`pdw_casadi.studies.sweep_run.run_sweep`; its
-    files and lines are rendered by :mod:`pdw_casadi.report.sweep_report`.
+    to answer before anything is written). ``--timing`` also prints the gait timing of
+    every point (double support per period and stance in % of the gait cycle, phase
+    durations in ms: :func:`pdw_casadi.studies.sweep_timing.sweep_timing`). Exit code 1
+    when the start has no gait. The sweep itself is the workflow
+    :func:`pdw_casadi.studies.sweep_run.run_sweep`; its files and lines are rendered by
+    :mod:`pdw_casadi.report.sweep_report`.
     """
     parser = Parser(
         prog="pdw-sweep", parents=[common_parser()],
@@ -104,6 +111,8 @@ def sweep_main(argv: Sequence[str] | None = None) -> int:
         outputs.wrote(out / "sweep.png")
         write_sweep_report(swept, out, units)
         print("\n".join(sweep_lines(swept)))
+        if args.timing:
+            print("\n".join(_timing_lines(problem, swept, units)))
         print(f"wrote {outputs.dir}")
         return 0
 
@@ -137,6 +146,10 @@ def _sweep_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--refit", action="store_true",
                         help="refit the compliance to --gait at every point (a full pdw-fit "
                              "per point, warm-started from the neighbour; slow)")
+    parser.add_argument("--timing", action="store_true",
+                        help="also print the gait timing of every point: valid, stable, the "
+                             "spectral radius, double support per period and stance (%% of "
+                             "the gait cycle) and the phase durations (ms)")
     parallel_arguments(parser, "independent work")
     parser.add_argument("--tol", type=tolerance(), default=SweepRequest.tol,
                         help=f"|P(x) - x| of every fixed point, in [{TOL_RANGE[0]:g}, "
@@ -160,6 +173,8 @@ def _checked_problem(args: argparse.Namespace) -> tuple[Problem, GaitCurves | No
                          f"(its gait is swept on the stride map without them)")
     if args.from_fit is not None:
         problem = load_fit_start(problem, args.from_fit)
+    if args.timing:
+        check_sweep_timing(problem)
     check_sweep(problem, args.param,
                 [(f"{flag} {v:g}", v) for flag, v in (("--from", args.start), ("--to", args.stop))])
     human = None
@@ -167,6 +182,12 @@ def _checked_problem(args: argparse.Namespace) -> tuple[Problem, GaitCurves | No
         human = gait_file(args.gait)  # a bad file is a user error now, not mid-sweep
         check_curve_walker(problem, "--gait")
     return problem, human
+
+
+def _timing_lines(problem: Problem, swept: SweepRun, units: Units) -> list[str]:
+    """The ``--timing`` lines of a finished sweep, one per point in the order found."""
+    points = sweep_timing(problem, swept.result.table)
+    return sweep_timing_lines(points, swept.request.parameter, units)
 
 
 def _noting_rows(outputs: Outputs, rows: SweepRows, final_csv: Path) -> Callable[[dict], None]:

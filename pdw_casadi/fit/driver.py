@@ -62,7 +62,7 @@ class FitSolver:
     def __init__(self, nlp, human, opts: FitOptions, log=print, extra=None, errors=None,
                  radius_bound: float | None = None, knee_floor: float | None = None):
         """``extra(nlp) -> MX``: a further objective term of the caller's (e.g. the heel-off
-        margin of scripts/heeloff_seed.py); like the timing term it is left out of the
+        margin of pdw-seed heeloff); like the timing term it is left out of the
         reported objective, which stays the curve part. ``errors``: the curve error rows
         (key -> (err, SS_tot)) instead of :func:`curve_errors` of ``human`` (the stride fit's
         per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper

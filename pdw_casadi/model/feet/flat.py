@@ -19,6 +19,9 @@ from pdw_casadi.model.margins import IMPULSE, IMPULSE_COP
 from pdw_casadi.model.mechanics.planar import Body, direction
 
 #: the 6-link walker's phases with flat feet (docs/model.md)
+#: the single-support phase (the stance foot flat, the other leg swinging); the feet built
+#: on the flat foot (rocker, arc, toes) keep its name
+SINGLE_SUPPORT = "II"
 PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toe pivot",
                       "II": "single stance on the flat foot, swing",
                       "III": "trailing toe + leading heel pivots"}

@@ -66,6 +66,8 @@ HEEL_DOWN_ARM = 1e-6
 TIP_DEPTH = 1e-6
 TOE_KEYS = ("l_toe", "l_toec", "m_toe", "J_toe")
 TOE_COMPLIANCE = ("k_mtp", "c_mtp", "mtp_rest")
+#: the phases of single stance on the flat foot (the swing toes free or on their stop)
+SINGLE_SUPPORT_PHASES = ("II", "II_stop")
 PHASE_DESCRIPTIONS = {"I": "leading foot flat + trailing toes flat (heel up)",
                       "I_tip": "leading foot flat + trailing toe-tip pivot",
                       "I_stop": "leading foot flat + trailing toe-tip pivot, toes on their "
