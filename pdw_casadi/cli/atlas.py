@@ -7,7 +7,6 @@ from pathlib import Path
 
 from pdw_casadi.cli.common import check_curve_walker
 from pdw_casadi.cli.contract import (
-    NoGait,
     Outputs,
     Parser,
     check_output_file,
@@ -15,10 +14,19 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.fit.atlas import RADII, VARIANTS, build_atlas
-from pdw_casadi.fit.starts import atlas_path, load_atlas, save_atlas, warm_path
 from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
+from pdw_casadi.report.atlas_report import write_atlas, wrote_line
+from pdw_casadi.studies.atlas_run import (
+    DEFAULT_RADII,
+    VARIANT_SETS,
+    atlas_file,
+    atlas_variants,
+    build_atlas,
+    kept_entries,
+    run_atlas,
+    warm_file,
+)
 
 
 def atlas_main(argv=None) -> int:
@@ -30,9 +38,9 @@ def atlas_main(argv=None) -> int:
     ap = Parser(prog="pdw-atlas", description="Rebuild a walker's gait atlas.")
     ap.add_argument("--problem", default=DEFAULT_PROBLEM)
     ap.add_argument("--radius", type=open_interval("--radius", 0.0, 1.0), nargs="+",
-                    default=list(RADII),
+                    default=list(DEFAULT_RADII),
                     help="spectral-radius limits of the seeds (default: %(default)s)")
-    ap.add_argument("--variants", choices=("own", "all"), default="own",
+    ap.add_argument("--variants", choices=VARIANT_SETS, default="own",
                     help="targets: the walker's own curves only, or also a set of "
                          "their deformations (VARIANTS)")
     ap.add_argument("--curves", nargs="*", default=["female_fast.csv"], metavar="FILE",
@@ -50,22 +58,17 @@ def atlas_main(argv=None) -> int:
         problem = load_problem(args.problem)
         check_curve_walker(problem, "pdw-atlas")
         curves = tuple(load_gait_curves(f) for f in args.curves)
-        out = args.out or atlas_path(problem.name)
+        out = atlas_file(problem, args.out)
         check_output_file(out, "--out", (".json",))
         outputs.dir = Path(out)
-        # read before the fits: a damaged or foreign atlas is refused before any work
-        kept = load_atlas(problem, out) if args.keep and Path(out).is_file() else []
-        entries = build_atlas(problem, tuple(args.radius),
-                              VARIANTS if args.variants == "all" else VARIANTS[:1], curves,
-                              log=lambda m: print(m, file=sys.stderr, flush=True))
-        if not entries:
-            raise NoGait(f"no stable valid gait of {problem.name} for any target (nothing "
-                         f"written)")
-        labels = {e.label for e in entries}
-        entries += [e for e in kept if e.label not in labels]
-        save_atlas(problem, entries, outputs.wrote(outputs.staged(out)),
-                   outputs.wrote(outputs.staged(warm_path(Path(out)))))
-        print(f"wrote {out}")
+        kept = kept_entries(problem, out, args.keep)  # a damaged atlas: refused before work
+        # the builder by the name this module holds: a test stands in for the fits there
+        atlas = run_atlas(problem, args.radius, atlas_variants(args.variants), curves, kept,
+                          log=lambda m: print(m, file=sys.stderr, flush=True),
+                          build=build_atlas)
+        write_atlas(atlas, outputs.wrote(outputs.staged(out)),
+                    outputs.wrote(outputs.staged(warm_file(Path(out)))))
+        print(wrote_line(out))
         return 0
 
     return run(outputs, body)

@@ -21,7 +21,6 @@ from pdw_casadi.cli.contract import (
     open_interval,
     run,
 )
-from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.studies.cohort import (
     BODIES,
     KINDS,
@@ -31,6 +30,7 @@ from pdw_casadi.studies.cohort import (
     read_study,
     run_cohort,
 )
+from pdw_casadi.studies.fit_run import FitOptions
 
 DEFAULTS = CohortOptions()
 FIT_DEFAULTS = FitOptions()

@@ -82,13 +82,13 @@ def max_iter_argument(parser, default: int) -> None:
 def fit_arguments(parser: argparse.ArgumentParser, defaults=None, timing: bool = False,
                   title: str | None = None):
     """The fit's flags (pdw-fit, pdw-cohort), their defaults read from ``defaults`` (a
-    :class:`~pdw_casadi.fit.FitOptions`; default: ``FitOptions()``): starts, targets,
+    :class:`~pdw_casadi.studies.fit_run.FitOptions`; default: ``FitOptions()``): starts, targets,
     stability, IPOPT, the per-leg fit's ``--side`` and ``--stride-start`` in their own
     group; ``timing``: also ``--timing [W]``; ``title``: the group of the fit's flags
     (None: the parser's own options). :func:`fit_options` turns the parsed flags into the
     options. Returns the per-leg group (for a command's further per-leg flags)."""
     # deferred: the fit stack, only for the commands that fit (pdw-fit, pdw-cohort)
-    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.studies.fit_run import FitOptions
 
     d = defaults or FitOptions()
     lo, hi = d.slope_bounds
@@ -156,11 +156,11 @@ def _knee_floor(text: str) -> str | float:
 
 def fit_options(args: argparse.Namespace, per_leg: bool = True, **extra):
     """The fit's settings of flags parsed by :func:`fit_arguments` (``--atlas none``: no
-    atlas): a :class:`~pdw_casadi.fit.FitOptions` (``per_leg``: with ``--side`` and
+    atlas): a :class:`~pdw_casadi.studies.fit_run.FitOptions` (``per_leg``: with ``--side`` and
     ``--stride-start``; else the per-leg settings at their defaults), with ``extra``
     settings of the caller's (e.g. ``verbose``)."""
     # deferred: the fit stack, only for the commands that fit (pdw-fit, pdw-cohort)
-    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.studies.fit_run import FitOptions
 
     atlas = None if args.atlas is None else ("" if args.atlas == "none" else args.atlas)
     values = dict(hip_target=args.hip_target, free_slope=args.free_slope,
@@ -234,17 +234,6 @@ def load_gait_problem(args: argparse.Namespace, outputs: Outputs) -> Problem:
     check_exports(args, problem)
     outputs.check()
     return problem
-
-
-def command_map(problem: Problem, stride: bool = False):
-    """The periodic map a command works on: the stride (two steps, the parameters following
-    the physical legs) with ``stride`` or when the legs differ, else the step map
-    (:class:`~pdw_casadi.gait.poincare.PoincareMap`)."""
-    # deferred: the gait layer, only when a command needs it (all import this module)
-    from pdw_casadi.gait.poincare import PoincareMap
-    from pdw_casadi.gait.stride import period_steps
-
-    return PoincareMap(problem, steps=2 if stride else period_steps(problem))
 
 
 def write_summary(outputs: Outputs, out: Path, summary: dict, hs) -> Path:

@@ -9,8 +9,6 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from pdw_casadi.cli.common import (
     check_curve_walker,
     check_exports,
@@ -31,7 +29,6 @@ from pdw_casadi.cli.contract import (
     UsageError,
     check_input_file,
     connect_scheduler,
-    one_line,
     run,
 )
 from pdw_casadi.cli.scripts import STARTED
@@ -49,30 +46,15 @@ def _fit_output(outputs: Outputs, opts) -> Path:
 
 
 def check_atlas_file(problem: Problem, path: Path, same_parameters: bool = True) -> None:
-    """Raise :class:`UsageError` unless ``path`` reads as a gait atlas (of ``problem``'s
-    parameters with ``same_parameters``): a malformed file fails before anything is
-    written, not after the fit's first solves."""
+    """Raise :class:`UsageError` unless ``path`` is a readable file that reads as a gait
+    atlas (of ``problem``'s parameters with ``same_parameters``): a malformed file fails
+    before anything is written, not after the fit's first solves (the rule:
+    :func:`pdw_casadi.studies.fit_checks.check_atlas_file`)."""
     # deferred: the fit stack, only when the command runs (fast --help)
-    from pdw_casadi.fit.starts import AtlasEntry
+    from pdw_casadi.studies.fit_checks import check_atlas_file as check_atlas
 
     check_input_file(path, "--atlas")
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-        entries = [AtlasEntry.from_dict(d) for d in data["entries"]]
-        names = list(data["parameter_names"])
-        for e in entries:
-            arrays = (e.state, e.parameters, e.curves.to_numpy(float))
-            if not all(np.all(np.isfinite(a)) for a in arrays) or e.parameters.size != len(names):
-                raise ValueError(f"entry {e.label!r} has non-finite or missing values")
-    except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError) as exc:
-        reason = f"no key {exc}" if isinstance(exc, KeyError) else one_line(exc)
-        raise UsageError(f"--atlas {path}: not a gait atlas ({reason})") from None
-    if same_parameters and names != list(problem.parameter_names):
-        raise UsageError(f"--atlas {path}: an atlas of a walker with the parameters "
-                         f"{', '.join(map(str, names))}, not {problem.name}'s")
-    if same_parameters and any(e.state.size != len(problem.state_names) for e in entries):
-        raise UsageError(f"--atlas {path}: its states do not have {problem.name}'s "
-                         f"{len(problem.state_names)} values")
+    check_atlas(problem, path, same_parameters)
 
 
 def fit_main(argv: Sequence[str] | None = None) -> int:
@@ -171,8 +153,8 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     """pdw-fit with per-side curves: each leg fitted to its side on the stride
     (:mod:`pdw_casadi.fit.stride_fit`); the report of :mod:`pdw_casadi.report.fit_stride_report`."""
     # deferred: the per-leg fit workflow and its report, only when the command runs (fast --help)
-    from pdw_casadi.gait.stride import stride_map
     from pdw_casadi.report.fit_stride_report import write_fit_stride_report
+    from pdw_casadi.studies.fit_checks import check_stride_walker
     from pdw_casadi.studies.fit_run import run_fit
 
     if args.timing:
@@ -186,10 +168,7 @@ def _fit_stride_body(args, outputs: Outputs, problem: Problem, sides) -> int:
     if not problem.compliance:
         raise UsageError(f"{problem.name} ({problem.family}) has no compliance values to fit "
                          f"per leg")
-    try:
-        stride_map(problem)
-    except ProblemError as exc:
-        raise UsageError(str(exc)) from None
+    check_stride_walker(problem)
     outputs.check()
     opts = fit_options(args, verbose=not args.quiet)
     if opts.atlas:

@@ -2,18 +2,13 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
 from pdw_casadi.cli.common import (
     TOL_RANGE,
     check_curve_walker,
-    command_map,
     common_parser,
     export_argument,
     gait_file,
@@ -34,13 +29,12 @@ from pdw_casadi.cli.contract import (
     int_range,
     run,
 )
-from pdw_casadi.engine.compile import build_libraries
-from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL, find_fixed_point
-from pdw_casadi.gait.poincare import sensitivity_libraries
-from pdw_casadi.gait.simulate import Simulator
-from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
-from pdw_casadi.model.faces import walker_faces
 from pdw_casadi.report.conditioning_report import conditioning_lines, write_conditioning
+from pdw_casadi.studies.fixed_point_run import (
+    FIXED_POINT_TOL,
+    fixed_point_map,
+    run_fixed_point,
+)
 
 
 def fixed_point_main(argv: Sequence[str] | None = None) -> int:
@@ -77,89 +71,41 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
         if args.conditioning is not None or _conditioning_flags(args):
             return _conditioning_body(args, outputs)
         problem = load_gait_problem(args, outputs)
-        # deferred: matplotlib (report layer), only when the command runs (fast --help)
-        from pdw_casadi.report.plots import plot_limit_cycle
+        # deferred: the report's figures (matplotlib), only when the command runs (fast --help)
+        from pdw_casadi.report.fixed_point_report import (
+            no_gait_message,
+            result_lines,
+            stride_line,
+            write_leg_curves,
+            write_limit_cycle,
+        )
 
-        pmap = command_map(problem, args.stride)  # a stride: parameters follow the legs
-        stride = pmap.steps > 1
-        faces = None if stride else walker_faces(problem)
+        pmap = fixed_point_map(problem, args.stride)  # a stride: parameters follow the legs
         out = outputs.create()
-        # a first run on this machine: the walker and its sensitivities, side by side
-        build_libraries([*pmap.hs.libraries(), *sensitivity_libraries(pmap.hs)],
-                        log=lambda m: print(m, file=sys.stderr, flush=True))
-        print(f"solving for a fixed point of {problem.name} (slope {problem.slope} rad)...",
-              file=sys.stderr)
-        res = find_fixed_point(problem, tol=args.tol, pmap=pmap, verbose=not stride)
-        summary = res.to_dict()
-        wall = summary.pop("wall_time_s", None)  # timings are not part of the result
-        summary["distance_from_initial"] = float(
-            np.linalg.norm(res.state - problem.state_vector()))
-        summary["problem"] = problem.name
-        summary["initial_state"] = dict(problem.initial_state)
-        if res.converged and not stride:
-            summary["timing"] = timing_or_none(lambda: fixed_point_timing(
-                problem, res.state, res.parameters))
-        if stride:
-            summary["map"] = "stride (left-stance step, then right-stance step)"
-            if res.converged:
-                summary.update(_stride_outputs(pmap, res, out, outputs))
-        write_summary(outputs, out, summary, pmap.hs)
-        if res.converged and not stride:
-            sim = Simulator(problem)
-            two = sim.run(res.state, res.parameters, steps=2, record=True)
-            plot_limit_cycle(two.trajectory, outputs.wrote(out / "limit_cycle.png"),
-                             faces=faces,
-                             title=f"{problem.name}: limit cycle of one leg over two steps")
+        fp = run_fixed_point(problem, pmap, args.tol,
+                             log=lambda m: print(m, file=sys.stderr, flush=True))
+        res = fp.result
+        for path in write_leg_curves(fp, out):
+            outputs.wrote(path)
+        line = stride_line(fp)
+        if line is not None:
+            print(line)
+        write_summary(outputs, out, fp.summary, pmap.hs)
+        limit_cycle = write_limit_cycle(fp, out)
+        if limit_cycle is not None:
+            outputs.wrote(limit_cycle)
         if res.converged:
             # deferred: the OpenSim export (report layer), imported only for --export opensim
             from pdw_casadi.report.opensim import export_gait
 
             write_exports(args, outputs, lambda: export_gait(
                 problem, res.state, out, parameters=res.parameters, steps=2))
-        ev = ", ".join(f"{e.real:+.4f}{e.imag:+.4f}i" for e in res.eigenvalues)
-        print(f"converged={res.converged} residual={res.residual:.2e} "
-              f"iterations={res.iterations} spectral radius={res.spectral_radius:.4f} "
-              f"({'stable' if res.stable else 'NOT stable'}) valid={res.valid}"
-              f"{'' if res.valid else ' (' + str(res.failure) + ')'}")
-        print(f"eigenvalues: {ev}")
-        print(f"wrote {outputs.dir}" + (f" ({wall:.2f} s)" if wall is not None else ""))
+        print("\n".join(result_lines(fp, outputs.dir)))
         if not res.converged:
-            why = (f"|P(x) - x| = {res.residual:.3g} > {args.tol:g}"
-                   f"{', ' + str(res.failure) if res.failure else ''}"
-                   if math.isfinite(res.residual) else
-                   f"the walker fails in the first step from it: {res.failure}")
-            raise NoGait(f"no fixed point of {problem.name} near its initial state ({why}); "
-                         f"the summary is in {outputs.dir / 'summary.json'}")
+            raise NoGait(no_gait_message(fp, args.tol, outputs.dir / "summary.json"))
         return 0
 
     return run(outputs, body)
-
-
-def _stride_outputs(smap, res, out: Path, outputs) -> dict:
-    """Per-leg report of a stride fixed point for ``summary.json`` (``stride``; per leg its
-    step, stance and swing and the timing of its own gait cycle) and the per-leg knee/hip
-    curves in ``leg_curves.csv`` and ``leg_curves.png``."""
-    # deferred: the stride report and matplotlib, only when the command runs (fast --help)
-    from pdw_casadi.gait.stride import stride_report, stride_timing
-    from pdw_casadi.report.plots import plot_leg_curves
-
-    rep = stride_report(smap, res.state, res.parameters)
-    timing = timing_or_none(lambda: stride_timing(smap, res.state, res.parameters))
-    if timing is not None:  # each physical leg's own gait cycle
-        for side, t in timing.items():
-            rep["legs"][side]["timing"] = t.to_dict()
-    curves = rep.pop("curves")
-    frame = pd.concat([c.assign(leg=side) for side, c in curves.items()], ignore_index=True)
-    frame.to_csv(outputs.wrote(out / "leg_curves.csv"), index=False)
-    plot_leg_curves(curves, outputs.wrote(out / "leg_curves.png"),
-                    title=f"{smap.problem.name}: knee and hip per leg")
-    rep["step_spectral_radius_equivalent"] = float(np.sqrt(res.spectral_radius))
-    print(f"step length L/R {rep['legs']['left']['step_length_m']:.4f} / "
-          f"{rep['legs']['right']['step_length_m']:.4f} m "
-          f"(asymmetry {rep['step_length_asymmetry_pct']:+.3f} %), step time L/R "
-          f"{rep['legs']['left']['step_time_s']:.4f} / {rep['legs']['right']['step_time_s']:.4f}"
-          f" s (asymmetry {rep['step_time_asymmetry_pct']:+.3f} %)")
-    return {"stride": rep}
 
 
 #: default points along the Newton step of ``--conditioning``

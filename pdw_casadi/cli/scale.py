@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import sys
-import time
 
 from pdw_casadi.cli.contract import (
-    NoGait,
     Outputs,
     Parser,
     check_output_file,
@@ -14,8 +12,9 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.gait.fixed_point import find_fixed_point
-from pdw_casadi.model.problem import DEFAULT_PROBLEM, ProblemError, load_problem
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
+from pdw_casadi.report.scale_report import starting_line, write_scaled_walker, wrote_line
+from pdw_casadi.studies.scale_run import BODIES, run_scale, subject_of
 from pdw_casadi.studies.scaling import (
     BODY_MAX_RADIUS,
     HEIGHT_RANGE_M,
@@ -23,12 +22,6 @@ from pdw_casadi.studies.scaling import (
     SEXES,
     check_scalable,
     problem_toml,
-    reference_height,
-    reference_mass,
-    scale_problem,
-    scaled_state,
-    stable_subject_walker,
-    subject_row,
 )
 
 
@@ -53,7 +46,7 @@ def scale_main(argv=None) -> int:
     parser.add_argument("--subject", metavar="ID",
                         help="a bundled subject (mass, height and sex from "
                              "data/anthropometry/subjects.csv), e.g. WBDS09")
-    parser.add_argument("--body", choices=("deleva", "uniform"), default="deleva")
+    parser.add_argument("--body", choices=BODIES, default="deleva")
     parser.add_argument("--max-radius", type=open_interval("--max-radius", 0.0, 1.0),
                         default=BODY_MAX_RADIUS, metavar="R",
                         help="de Leva body: the largest spectral radius of the gait written "
@@ -66,57 +59,15 @@ def scale_main(argv=None) -> int:
 
     def body() -> int:
         check_output_file(args.out, "--out", (".toml",))
-        if args.subject:
-            if args.mass is not None or args.height is not None:
-                raise ProblemError("give either --subject or --mass and --height")
-            who = subject_row(args.subject)
-        elif args.mass is None or args.height is None:
-            raise ProblemError("give --mass and --height (or --subject ID)")
-        else:
-            who = {"mass_kg": args.mass, "height_m": args.height, "sex": args.sex}
+        who = subject_of(args.subject, args.mass, args.height, args.sex)
         ref = load_problem(args.problem)
         check_scalable(ref)
-        print(f"scaling {ref.name} to {who['mass_kg']:g} kg, {who['height_m']:g} m, "
-              f"{who['sex']} ({args.body})...", file=sys.stderr)
-        t0 = time.perf_counter()
-        if args.body == "uniform":
-            fp0 = find_fixed_point(ref)
-            if not fp0.converged:
-                raise NoGait(f"no fixed point of {ref.name} near its initial state")
-            s = who["height_m"] / reference_height(ref, who["sex"])
-            m = who["mass_kg"] / reference_mass(ref)
-            pb = scale_problem(ref, s, m, name=args.out.stem).with_state(scaled_state(
-                ref, fp0.state, s))
-            rho, lam, note = fp0.spectral_radius, 1.0, "uniform scaling law (exact)"
-        else:
-            res = stable_subject_walker(who["mass_kg"], who["height_m"], who["sex"], ref,
-                                        max_radius=args.max_radius,
-                                        log=lambda line: print(line, file=sys.stderr))
-            cont = res.continued
-            lam = cont.path[-1][0] if cont is not None else 1.0
-            if res.problem is None:
-                raise NoGait(f"{res.reason} (best of {ref.name}'s reference gaits; nothing "
-                             f"written)")
-            pb, rho = res.problem.replace(name=args.out.stem), res.spectral_radius
-        if args.body != "uniform" and cont is None:
-            note = (f"the shipped stable {who['sex']} de Leva body's gait carried by the "
-                    f"scaling law (exact); stable, valid")
-        elif args.body != "uniform":
-            held = ", ".join(f"{k} held at {v:.4g} from lambda {lam_:g}"
-                             for k, (lam_, v) in cont.held.items()) or "none held"
-            stab = (f"; then the nearest gait with rho <= {args.max_radius:g} (the fit's "
-                    f"stability row on the walker's own curves; the continued gait had rho "
-                    f"{res.rho_continued:.4f})" if res.stabilised else "")
-            note = (f"continuation in the body from the uniformly scaled reference ({cont.start}"
-                    f" gait), {len(cont.path)} points, compliance adapted; validity margins: "
-                    f"{held}{stab}; stable, valid")
-        header = (f"# {who['mass_kg']:g} kg, {who['height_m']:g} m, {who['sex']}: written by "
-                  f"pdw-scale from {ref.name}\n# body: {args.body} (de Leva 1996, J. Biomech. "
-                  f"29:1223, adjusted Zatsiorsky-Seluyanov; foot geometry from the reference)"
-                  f"\n# gait: {note}; spectral radius {rho:.4f}\n")
-        outputs.wrote(outputs.staged(args.out)).write_text(problem_toml(pb, header))
-        print(f"wrote {args.out} (spectral radius {rho:.4f}, lambda {lam:g}, "
-              f"{time.perf_counter() - t0:.1f} s)")
+        print(starting_line(ref.name, who, args.body), file=sys.stderr)
+        scaled = run_scale(ref, who, args.body, args.out.stem, max_radius=args.max_radius,
+                           log=lambda line: print(line, file=sys.stderr))
+        # the renderer by the name this module holds: a test stands in for a write there
+        write_scaled_walker(scaled, outputs.wrote(outputs.staged(args.out)), toml=problem_toml)
+        print(wrote_line(scaled, args.out))
         return 0
 
     return run(outputs, body)
