@@ -20,7 +20,6 @@ from pdw_casadi.fit.core import (
     fit_gait,
     fit_libraries,
     fit_sides,
-    fit_stride,
 )
 from pdw_casadi.fit.objective import CurveError
 from pdw_casadi.fit.options import FitOptions
@@ -36,5 +35,5 @@ from pdw_casadi.nlp.stability import RADIUS_NORM, StabilityRow, smooth_radius
 
 __all__ = ["Candidate", "CurveError", "FitOptions", "FitResult", "RADIUS_NORM",
            "RefitCorrector", "Solve", "StabilityRow", "check_targets", "evaluate_gait",
-           "fit_gait", "fit_libraries", "fit_sides", "fit_stride", "mean_score",
+           "fit_gait", "fit_libraries", "fit_sides", "mean_score",
            "reference_gait", "smooth_radius"]

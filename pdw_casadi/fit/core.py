@@ -289,10 +289,6 @@ def fit_sides(problem, sides: SideCurves, options: FitOptions | None = None,
                      targets, notes, start=start_info, free=fit.free)
 
 
-#: the per-leg fit's name: :func:`fit_gait` with per-side curves (:func:`fit_sides`)
-fit_stride = fit_gait
-
-
 class RefitCorrector:
     """A continuation corrector that refits the compliance at every point of a sweep.
 

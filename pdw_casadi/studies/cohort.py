@@ -67,7 +67,6 @@ from pdw_casadi.engine.errors import GaitDataError, ProblemError, UsageError
 from pdw_casadi.engine.jsonio import jsonable
 from pdw_casadi.engine.parallel import map_tasks
 from pdw_casadi.fit import FitOptions, check_targets, fit_gait
-from pdw_casadi.fit.core import fit_stride
 from pdw_casadi.fit.options import PER_LEG_FIELDS
 from pdw_casadi.fit.stride_fit import check_stride_targets
 from pdw_casadi.gait.stride import stride_map
@@ -549,7 +548,7 @@ def _rejection(row: dict, opts: FitOptions, failure) -> str:
 
 
 def _fit_rows_sides(problem: Problem, sides: SideCurves, opts: FitOptions):
-    res = fit_stride(problem, sides, opts, log=lambda m: None)
+    res = fit_gait(problem, sides, opts, log=lambda m: None)
     cand, accepted, row = _fit_outcome(res, lambda c: c.mean_score(res.targets))
     if cand is None:
         row.update(status="failed", reason="; ".join(res.notes) or "the stride solve failed")

@@ -37,7 +37,6 @@ from pdw_casadi.fit import (
     fit_libraries,
     reference_gait,
 )
-from pdw_casadi.fit.core import fit_stride
 from pdw_casadi.fit.stride_fit import check_stride_targets
 from pdw_casadi.gait.poincare import fixed_point_libraries
 from pdw_casadi.gait.simulate import Simulator
@@ -194,7 +193,7 @@ def _run_sides(problem, sides: SideCurves, opts: FitOptions, log,
     check_stride_targets(problem, sides, opts)
     if before_work is not None:
         before_work()
-    res = fit_stride(problem, sides, opts, log=log)
+    res = fit_gait(problem, sides, opts, log=log)
     cand, ok = _pick(res)
     start_comp = leg_compliance(problem, np.asarray(res.start["parameters"]))
     comp = slope = None
