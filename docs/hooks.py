@@ -5,16 +5,26 @@ the command's own argparse parser, so the page cannot drift from the code) follo
 exit codes of the contract (:mod:`pdw_casadi.cli.contract`). Every command of
 :data:`pdw_casadi.cli.COMMANDS` must have its page ``commands/<name>.md`` holding its
 marker, or the build fails.
+
+The notebooks are pages too: each ``notebooks/NN_name.ipynb`` becomes the page
+``notebooks/NN_name.md``, generated at build time with the outputs saved in the notebook (the
+build never runs a notebook, and nothing is written into the repository), listed in the nav's
+section "Notebooks"; a link to a notebook file in a page becomes a link to its page.
 """
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import io
+import json
 import os
+import posixpath
 import re
+from pathlib import Path
 
 from mkdocs.exceptions import PluginError
+from mkdocs.structure.files import File
 
 MARKER = re.compile(r"^<!-- cli: (pdw-[a-z-]+) -->$", re.MULTILINE)
 
@@ -85,8 +95,244 @@ def on_files(files, config):
         text = pages[page].content_string
         if f"<!-- cli: pdw-{name} -->" not in text:
             raise PluginError(f"docs: {page} lacks the marker <!-- cli: pdw-{name} -->")
+    for notebook in notebook_paths(config):
+        markdown, images = render_notebook(notebook, config)
+        for uri, content in [(page_uri(notebook), markdown), *images.items()]:
+            if files.get_file_from_path(uri) is not None:
+                raise PluginError(f"docs: {uri} is generated from {NOTEBOOKS}/{notebook.name}, "
+                                  f"but the docs hold a file {uri}")
+            files.append(File.generated(config, uri, content=content))
     return files
 
 
 def on_page_markdown(markdown, page, config, files):
+    if page.file.abs_src_path:  # a page of docs/: its links to notebook files go to their pages
+        markdown = notebook_links(markdown, page.file, config)
     return MARKER.sub(lambda m: render(m.group(1)), markdown)
+
+
+# -- the notebooks: each notebooks/NN_name.ipynb is a page, rendered with its saved outputs ----
+# A notebook's page: its markdown cells as Markdown, its code cells as ``python`` blocks, each
+# followed by its saved outputs (streams and plain text as text blocks, images as files of the
+# site next to the page, HTML and Markdown as they are).
+NOTEBOOKS = "notebooks"  # the folder of the repository, and that of its pages on the site
+NAV_SECTION = "Notebooks"
+#: the output representations shown, richest first; images are written as files
+IMAGE_TYPES = {"image/png": "png", "image/jpeg": "jpg", "image/gif": "gif",
+               "image/svg+xml": "svg"}
+OUTPUT_ORDER = (*IMAGE_TYPES, "text/markdown", "text/html", "text/plain")
+ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+MD_LINK = re.compile(r"(!?)\[([^\]\n]*)\]\(([^)\s]+)\)")
+HEADING = re.compile(r"^# +(.+)$", re.MULTILINE)
+
+
+def _root(config) -> Path:
+    return Path(config.config_file_path).resolve().parent
+
+
+def notebook_paths(config) -> list[Path]:
+    """The notebooks of the repository, ``notebooks/*.ipynb``, in name order."""
+    return sorted((_root(config) / NOTEBOOKS).glob("*.ipynb"))
+
+
+def page_uri(notebook: Path) -> str:
+    """The page of a notebook in the docs: ``notebooks/01_reproduce_paper.md``."""
+    return f"{NOTEBOOKS}/{notebook.stem}.md"
+
+
+def read_notebook(path: Path) -> dict:
+    """The notebook at ``path`` (nbformat 4, read as JSON: the docs extra needs no nbformat),
+    every ``source`` and text output joined into one string."""
+    try:
+        nb = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise PluginError(f"docs: cannot read notebook {path.name}: {exc}") from None
+    if nb.get("nbformat") != 4:
+        raise PluginError(f"docs: {path.name} is nbformat {nb.get('nbformat')}, not 4")
+
+    def text(value) -> str:
+        return "".join(value) if isinstance(value, list) else (value or "")
+
+    for cell in nb.get("cells", []):
+        cell["source"] = text(cell.get("source"))
+        for out in cell.get("outputs", []):
+            if "text" in out:
+                out["text"] = text(out["text"])
+            out["data"] = {k: text(v) if isinstance(v, (list, str)) else v
+                           for k, v in out.get("data", {}).items()}
+    return nb
+
+
+def nav_title(path: Path, nb: dict) -> str:
+    """``01 Reproducing the paper``: the number of the file name and the notebook's first
+    heading up to its colon (without a number or dash of its own)."""
+    number = path.stem.split("_", 1)[0]
+    heading = next((m.group(1) for cell in nb.get("cells", []) if cell["cell_type"] == "markdown"
+                    for m in [HEADING.search(cell["source"])] if m), None)
+    if heading is None:
+        return path.stem.replace("_", " ")
+    heading = re.sub(r"^\d+\s*[—–-]?\s*", "", heading.split(":", 1)[0]).strip()
+    return f"{number} {heading}" if number.isdigit() else heading
+
+
+def _fence(text: str, lang: str) -> str:
+    """``text`` in a fenced block longer than any run of backticks it holds."""
+    longest = max((len(m) for m in re.findall(r"`+", text)), default=0)
+    fence = "`" * max(3, longest + 1)
+    return f"{fence}{lang}\n{text.rstrip()}\n{fence}"
+
+
+def _plain(text: str) -> str:
+    """Terminal text as a page shows it: no colour codes, a carriage return overwriting."""
+    text = ANSI.sub("", text)
+    return "\n".join(line.rsplit("\r", 1)[-1] for line in text.split("\n"))
+
+
+def _link(target: str, notebook: Path, config) -> str | None:
+    """A link of a notebook's markdown, made relative to its page: a page of the docs (the
+    notebook says ``../docs/model.md``), another notebook's page, or None (a file of the
+    repository that is not on the site)."""
+    if re.match(r"[a-zA-Z][\w+.-]*:", target) or target.startswith(("#", "/")):
+        return target
+    path, hash_, anchor = target.partition("#")
+    local = (notebook.parent / path).resolve()
+    docs = Path(config.docs_dir).resolve()
+    here = posixpath.dirname(page_uri(notebook))
+    if local.suffix == ".ipynb" and local.parent == notebook.parent and local.is_file():
+        uri = page_uri(local)
+    elif docs in local.parents and local.exists():
+        uri = local.relative_to(docs).as_posix()
+    else:
+        return None
+    return posixpath.relpath(uri, here) + hash_ + anchor
+
+
+def render_notebook(path: Path, config) -> tuple[str, dict[str, bytes]]:
+    """The Markdown page of the notebook at ``path`` and its images (site path -> bytes)."""
+    nb = read_notebook(path)
+    stem, rel = path.stem, f"{NOTEBOOKS}/{path.name}"
+    images: dict[str, bytes] = {}
+    blocks: list[str] = []
+
+    def image(name: str, mime: str, data) -> str:
+        raw = data.encode() if mime == "image/svg+xml" else base64.b64decode(data)
+        images[f"{NOTEBOOKS}/{stem}/{name}.{IMAGE_TYPES[mime]}"] = raw
+        return f"{stem}/{name}.{IMAGE_TYPES[mime]}"
+
+    def markdown_cell(n: int, cell: dict) -> str:
+        attachments = cell.get("attachments") or {}
+
+        def sub(m: re.Match) -> str:
+            bang, label, target = m.groups()
+            if target.startswith("attachment:"):
+                name = target.removeprefix("attachment:")
+                mime = next((t for t in IMAGE_TYPES if t in attachments.get(name, {})), None)
+                if mime is None:
+                    raise PluginError(f"docs: {rel} cell {n}: no image attachment {name!r}")
+                stemmed = re.sub(r"[^\w-]", "_", Path(name).stem)
+                src = image(f"cell{n:02d}-{stemmed}", mime, attachments[name][mime])
+                return f"{bang}[{label}]({src})"
+            new = _link(target, path, config)
+            if new is None:  # a file of the repository, not on the site: named, not linked
+                local = (path.parent / target.split("#")[0]).resolve()
+                try:
+                    shown = local.relative_to(_root(config)).as_posix()
+                except ValueError:
+                    shown = target
+                return f"{label} (`{shown}`)"
+            return f"{bang}[{label}]({new})"
+
+        return MD_LINK.sub(sub, cell["source"])
+
+    def output(n: int, k: int, out: dict) -> str | None:
+        kind = out.get("output_type")
+        if kind == "error":
+            trace = out.get("traceback") or [f"{out.get('ename')}: {out.get('evalue')}"]
+            return _fence(_plain("\n".join(trace)), "text")
+        data = out.get("data", {})
+        mime = next((t for t in OUTPUT_ORDER if t in data), None)
+        if mime is None:
+            return None if not data else f"*(output of type {', '.join(sorted(data))} not shown)*"
+        if mime in IMAGE_TYPES:
+            return f"![output of cell {n}]({image(f'cell{n:02d}-{k}', mime, data[mime])})"
+        if mime == "text/markdown":
+            return data[mime].strip()
+        if mime == "text/html":
+            return f'<div class="notebook-output">\n{data[mime].strip()}\n</div>'
+        return _fence(_plain(data[mime]), "text")
+
+    saved = 0
+    for n, cell in enumerate(nb.get("cells", []), 1):
+        if cell["cell_type"] == "markdown":
+            blocks.append(markdown_cell(n, cell))
+            continue
+        if cell["cell_type"] != "code":  # a raw cell
+            if cell["source"].strip():
+                blocks.append(_fence(cell["source"], "text"))
+            continue
+        if cell["source"].strip():
+            blocks.append(_fence(cell["source"], "python"))
+        stream, name = [], None
+        for k, out in enumerate(cell.get("outputs", []), 1):
+            saved += 1
+            if out.get("output_type") == "stream":
+                if stream and out.get("name") != name:
+                    blocks.append(_fence(_plain("".join(stream)), "text"))
+                    stream = []
+                stream.append(out.get("text", ""))
+                name = out.get("name")
+                continue
+            if stream:
+                blocks.append(_fence(_plain("".join(stream)), "text"))
+                stream = []
+            shown = output(n, k, out)
+            if shown:
+                blocks.append(shown)
+        if stream:
+            blocks.append(_fence(_plain("".join(stream)), "text"))
+    if saved:
+        first = (f"*Rendered from `{rel}` with its saved outputs, as they were when the "
+                 "notebook was last run: the site build does not execute it.*")
+    else:
+        first = (f"*Rendered from `{rel}`, which has no saved outputs: this page shows its "
+                 "text and code only (the site build does not execute it; run the notebook "
+                 "to see its results).*")
+    return "\n\n".join([first, *blocks]) + "\n", images
+
+
+def notebook_links(markdown: str, file, config) -> str:
+    """``markdown`` of the docs page ``file`` with its links to a notebook of the repository
+    (``../notebooks/01_reproduce_paper.ipynb#x``) turned into links to the notebook's page."""
+    notebooks = (_root(config) / NOTEBOOKS).resolve()
+
+    def sub(m: re.Match) -> str:
+        bang, label, target = m.groups()
+        path, hash_, anchor = target.partition("#")
+        if bang or not path.endswith(".ipynb") or re.match(r"[a-zA-Z][\w+.-]*:", path):
+            return m.group(0)
+        local = (Path(file.abs_src_path).parent / path).resolve()
+        if local.parent != notebooks or not local.is_file():
+            return m.group(0)  # MkDocs reports it
+        uri = posixpath.relpath(page_uri(local), posixpath.dirname(file.src_uri))
+        return f"[{label}]({uri}{hash_}{anchor})"
+
+    return MD_LINK.sub(sub, markdown)
+
+
+def on_config(config):
+    """The nav's "Notebooks" section: one entry per notebook, in name order."""
+    section = next((item for item in config.nav or [] if isinstance(item, dict)
+                    and NAV_SECTION in item), None)
+    if section is None:
+        raise PluginError(f"docs: the nav of mkdocs.yml lacks the section {NAV_SECTION!r} "
+                          "(its pages are generated from notebooks/*.ipynb)")
+    paths = notebook_paths(config)
+    if not paths:
+        raise PluginError("docs: no notebooks/*.ipynb for the nav section 'Notebooks'")
+    section[NAV_SECTION] = [{nav_title(p, read_notebook(p)): page_uri(p)} for p in paths]
+    return config
+
+
+def on_serve(server, config, builder):
+    server.watch(str(_root(config) / NOTEBOOKS))
+    return server

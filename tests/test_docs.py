@@ -607,3 +607,48 @@ def test_every_api_entry_has_its_own_text_and_appears_once(api_site):
     doubled = {home: names for home, names in by_object.items() if len(names) > 1
                and not (len(names) == 2 and sum(map(face, names)) == 1)}
     assert not doubled, f"an object rendered under two names: {doubled}"
+
+
+# -- the notebooks on the site: a page per notebook with its saved outputs, linked by the tour --
+def _article(html: str) -> str:
+    """The content of a built page (without the nav, which links every page)."""
+    return html[html.index("<article"):html.index("</article>")]
+
+
+def test_every_notebook_has_a_page_with_its_saved_outputs(api_site):
+    """docs/hooks.py renders each notebooks/*.ipynb as the page notebooks/NN_name/ of the site:
+    its first line names the notebook and says the build does not execute it (and that it has
+    no saved outputs, when so), every line of its code cells is on it, every saved image output
+    is an <img> whose file is in the site; the nav's "Notebooks" and the tour link every page."""
+    import html
+    notebooks = sorted((ROOT / "notebooks").glob("*.ipynb"))
+    assert notebooks
+    home = (api_site / "index.html").read_text(encoding="utf-8")
+    tour = _article((api_site / "tour" / "index.html").read_text(encoding="utf-8"))
+    tour_md = (DOCS / "tour.md").read_text(encoding="utf-8")
+    images_per_page = {}
+    for nb in notebooks:
+        cells = json.loads(nb.read_text(encoding="utf-8"))["cells"]
+        outputs = [o for c in cells if c["cell_type"] == "code" for o in c.get("outputs", [])]
+        images = [o for o in outputs if any(k.startswith("image/") for k in o.get("data", {}))]
+        code = [c for c in cells if c["cell_type"] == "code" and "".join(c["source"]).strip()]
+        page = api_site / "notebooks" / nb.stem / "index.html"
+        assert page.is_file(), f"{nb.name} has no page on the site"
+        article = _article(page.read_text(encoding="utf-8"))
+        first = re.sub(r"<[^>]+>", "", re.search(r"<p>(.*?)</p>", article, re.S).group(1))
+        assert first.startswith(f"Rendered from notebooks/{nb.name}"), first
+        assert "does not execute" in first, first
+        assert ("no saved outputs" in first) == (not outputs), first
+        text = html.unescape(re.sub(r"<[^>]+>", "", article))
+        missing = [line for c in code for line in "".join(c["source"]).splitlines()
+                   if line.strip() and line not in text]
+        assert not missing, f"{nb.name}: code not on its page: {missing[:3]}"
+        srcs = re.findall(r'<img[^>]*\ssrc="([^"]+)"', article)
+        assert len(srcs) == len(images), f"{nb.name}: {len(images)} images saved, {srcs} shown"
+        for src in srcs:
+            assert not src.startswith("data:") and (page.parent / src).stat().st_size > 0, src
+        images_per_page[nb.name] = len(srcs)
+        assert f'href="notebooks/{nb.stem}/"' in home, f"{nb.name}: not in the nav"
+        assert f"(../notebooks/{nb.name})" in tour_md, f"docs/tour.md does not link {nb.name}"
+        assert f'href="../notebooks/{nb.stem}/"' in tour, f"the tour does not link {nb.name}"
+    assert any(images_per_page.values()), images_per_page  # notebooks with figures show them
