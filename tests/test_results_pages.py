@@ -389,8 +389,8 @@ def test_prosthesis_page_the_28_9_percent_design(fixed_point, checks):
     """prosthesis.md: ``pdw-fixed-point --problem
     data/designs/humanlike_6link_prosthesis29.toml``: residual 3e-11, stride radius 0.7829
     (per step 0.885), equal steps (0.6140 m, 0.6536 s), the failed guard
-    ``left.foot_strike:toe_off_ahead`` = -0.0335 N, both legs' compliance. (The page's
-    "valid" in that sentence is stale: see the guard-check section, which says it is not.)"""
+    ``left.foot_strike:toe_off_ahead`` = -0.0335 N, invalid under today's guard rule as the
+    page says, both legs' compliance."""
     fp = fixed_point(DESIGNS[29])
     stride, legs = fp["stride"], fp["stride"]["legs"]
     checks.passage("prosthesis.md", r"data/designs/humanlike_6link_prosthesis29\.toml --out "
@@ -402,7 +402,7 @@ def test_prosthesis_page_the_28_9_percent_design(fixed_point, checks):
     checks.passage(
         "prosthesis.md",
         r"data/designs/humanlike_6link_prosthesis29\.toml` gives residual NUM, stride radius "
-        r"NUM \(per step NUM\), [a-z]+, step length NUM / NUM m and step time NUM / NUM s "
+        r"NUM \(per step NUM\), invalid, step length NUM / NUM m and step time NUM / NUM s "
         r"\(both asymmetries below NUM %\), slope NUM rad unchanged\. "
         + _compliance_pattern("Prosthetic leg:") + "; " + _compliance_pattern("sound leg:"),
         fp["residual"], fp["spectral_radius"], stride["step_spectral_radius_equivalent"],
