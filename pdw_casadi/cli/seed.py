@@ -102,6 +102,9 @@ def seed_main(argv: Sequence[str] | None = None) -> int:
             raise NoGait(f"Newton found no fixed point at the end of the continuation "
                          f"(lambda = {found.record['lambda']:.4f}); the record is in "
                          f"{outputs.final(path)}")
+        if args.search == "heeloff" and not found.found:
+            raise NoGait(f"Newton found no fixed point at the heel-off gait the stages ended "
+                         f"on; the record is in {outputs.final(path)}")
         return 0
 
     return run(outputs, body)

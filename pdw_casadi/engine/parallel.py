@@ -130,8 +130,9 @@ class ImportAhead:
 
     def __init__(self, name: str):
         self.name = name
-        self._thread = threading.Thread(target=self._run, name=f"import {name}",
-                                        daemon=True)
+        # not a daemon: an interpreter that exits (an error before the report) waits for
+        # the import to finish instead of tearing it down half done
+        self._thread = threading.Thread(target=self._run, name=f"import {name}")
         self._thread.start()
 
     def _run(self) -> None:

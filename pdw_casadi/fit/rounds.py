@@ -133,10 +133,10 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
         # zig-zagging on the bound had its last feasible one at iteration 4 of 202)
         if out.get("near") and (cand is None or not cand.good or not out["success"]):
             targets = opts.targets()
-            polished = polish_iterates(fit, nlp, solver, out, targets, log=log)
-            if polished is not None and (cand is None or not cand.good or
-                                         polished.mean_score(targets) > cand.mean_score(targets)):
-                cand, fallback = polished, polished.polished_from
+            shined = polish_iterates(fit, nlp, solver, out, targets, log=log)
+            if shined is not None and (cand is None or not cand.good or
+                                       shined.mean_score(targets) > cand.mean_score(targets)):
+                cand, fallback = shined, shined.polished_from
         rho = cand.fixed_point.spectral_radius if cand else math.nan
         hist = out["history"]
         at = hist[fallback] if fallback is not None else (hist[-1] if hist else None)

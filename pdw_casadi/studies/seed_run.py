@@ -318,7 +318,7 @@ def run_heeloff_seed(request: HeelOffRequest, human: GaitCurves | None = None,
               "slope": float(p[-1]), "phases_s": _phases_of(sim, x, p),
               "spectral_radius": float(fp.spectral_radius), "valid": bool(fp.valid),
               "failure": fp.failure, "wall_time_s": time.perf_counter() - t0}
-    return SeedRun("heeloff", pb, record)
+    return SeedRun("heeloff", pb, record, found=bool(fp.converged))
 
 
 # -- toes ----------------------------------------------------------------------------------------
@@ -442,7 +442,8 @@ def run_toes_scan(problem: Problem, request: ToesRequest, label: str | None = No
             comp[key] = float(rng.uniform(max(lo, blo), min(hi, bhi)))
         q = problem.replace(compliance=comp)
         run = sim.run(q.state_vector(), q.parameter_vector(), steps=1, record=False)
-        phases = [n for n, _ in run.steps[0].phases]
+        # a start the simulator refuses at once (a non-finite state) has no step at all
+        phases = [n for n, _ in run.steps[0].phases] if run.steps else []
         all_ends[run.failure.reason if run.failure else "whole step"] += 1
         if "II_mtp" not in phases:
             continue
