@@ -18,14 +18,14 @@ from pdw_casadi.model.gait_data import load_gait_curves
 from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
 from pdw_casadi.report.atlas_report import write_atlas, wrote_line
 from pdw_casadi.studies.atlas_run import (
-    DEFAULT_RADII,
+    RADII,
     VARIANT_SETS,
     atlas_file,
     atlas_variants,
     build_atlas,
     kept_entries,
     run_atlas,
-    warm_file,
+    warm_path,
 )
 
 
@@ -38,7 +38,7 @@ def atlas_main(argv=None) -> int:
     ap = Parser(prog="pdw-atlas", description="Rebuild a walker's gait atlas.")
     ap.add_argument("--problem", default=DEFAULT_PROBLEM)
     ap.add_argument("--radius", type=open_interval("--radius", 0.0, 1.0), nargs="+",
-                    default=list(DEFAULT_RADII),
+                    default=list(RADII),
                     help="spectral-radius limits of the seeds (default: %(default)s)")
     ap.add_argument("--variants", choices=VARIANT_SETS, default="own",
                     help="targets: the walker's own curves only, or also a set of "
@@ -67,7 +67,7 @@ def atlas_main(argv=None) -> int:
                           log=lambda m: print(m, file=sys.stderr, flush=True),
                           build=build_atlas)
         write_atlas(atlas, outputs.wrote(outputs.staged(out)),
-                    outputs.wrote(outputs.staged(warm_file(Path(out)))))
+                    outputs.wrote(outputs.staged(warm_path(Path(out)))))
         print(wrote_line(out))
         return 0
 

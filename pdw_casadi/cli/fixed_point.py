@@ -32,9 +32,9 @@ from pdw_casadi.cli.contract import (
 from pdw_casadi.report.conditioning_report import conditioning_lines, write_conditioning
 from pdw_casadi.studies.fixed_point_run import (
     FIXED_POINT_TOL,
-    fixed_point_map,
     run_fixed_point,
 )
+from pdw_casadi.studies.simulate_run import command_map
 
 
 def fixed_point_main(argv: Sequence[str] | None = None) -> int:
@@ -80,7 +80,7 @@ def fixed_point_main(argv: Sequence[str] | None = None) -> int:
             write_limit_cycle,
         )
 
-        pmap = fixed_point_map(problem, args.stride)  # a stride: parameters follow the legs
+        pmap = command_map(problem, args.stride)  # a stride: parameters follow the legs
         out = outputs.create()
         fp = run_fixed_point(problem, pmap, args.tol,
                              log=lambda m: print(m, file=sys.stderr, flush=True))

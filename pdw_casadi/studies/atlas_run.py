@@ -20,10 +20,11 @@ from pdw_casadi.fit.starts import AtlasEntry, atlas_path, load_atlas, save_atlas
 from pdw_casadi.model.gait_data import GaitCurves
 from pdw_casadi.model.problem import Problem
 
+__all__ = ["RADII", "VARIANT_SETS", "AtlasRun", "atlas_file", "atlas_variants", "build_atlas",
+           "kept_entries", "run_atlas", "warm_path"]
+
 #: the targets of ``--variants``: the walker's own curves, or also their deformations
 VARIANT_SETS = ("own", "all")
-#: RADII: the default spectral-radius limits (-) of the seeds, re-exported for the command
-DEFAULT_RADII = RADII
 
 
 @dataclass
@@ -50,11 +51,6 @@ def atlas_variants(which: str) -> tuple:
 def atlas_file(problem: Problem, out: Path | None) -> Path:
     """The atlas file written: ``out``, else the bundled atlas of ``problem``."""
     return Path(out) if out else atlas_path(problem.name)
-
-
-def warm_file(path: Path) -> Path:
-    """The warm-start file written beside the atlas file ``path``."""
-    return warm_path(Path(path))
 
 
 def kept_entries(problem: Problem, path: Path, keep: bool) -> list[AtlasEntry]:

@@ -2,10 +2,11 @@
 report.
 
 :func:`run_fixed_point` solves for a periodic gait of a walker on the map the command works
-on (:func:`fixed_point_map`: the step map, or the stride with ``--stride`` or when the legs
-differ; Newton with its IPOPT fallback, :func:`~pdw_casadi.gait.fixed_point.find_fixed_point`)
-and returns a :class:`FixedPointRun`: the result, the ``summary.json`` content, the per-leg
-report and curves of a stride and the limit cycle of a one-step gait. The report layer
+on (:func:`~pdw_casadi.studies.simulate_run.command_map`: the step map, or the stride with
+``--stride`` or when the legs differ; Newton with its IPOPT fallback,
+:func:`~pdw_casadi.gait.fixed_point.find_fixed_point`) and returns a
+:class:`FixedPointRun`: the result, the ``summary.json`` content, the per-leg report and
+curves of a stride and the limit cycle of a one-step gait. The report layer
 (:mod:`pdw_casadi.report.fixed_point_report`) only renders it.
 """
 
@@ -26,7 +27,6 @@ from pdw_casadi.gait.stride import stride_report, stride_timing
 from pdw_casadi.gait.timing import fixed_point_timing, timing_or_none
 from pdw_casadi.model.faces import WalkerFaces, walker_faces
 from pdw_casadi.model.problem import Problem
-from pdw_casadi.studies.simulate_run import command_map
 
 
 @dataclass
@@ -53,12 +53,6 @@ class FixedPointRun:
     def stride(self) -> bool:
         """Solved on the stride map (two steps, one per physical leg)."""
         return self.pmap.steps > 1
-
-
-def fixed_point_map(problem: Problem, stride: bool = False) -> PoincareMap:
-    """The map ``pdw-fixed-point`` solves on: the stride with ``stride`` or when the legs
-    differ, else the step map."""
-    return command_map(problem, stride)
 
 
 def _stride_summary(pmap: PoincareMap, res) -> tuple[dict, dict[str, pd.DataFrame]]:
