@@ -431,7 +431,7 @@ def test_6_a_constant_knee_is_one_error_line_of_pdw_fit(tmp_path, capsys):
 
 # -- 7. pdw-scale ---------------------------------------------------------------------------------
 def test_7_problem_toml_quotes_a_title_with_quotes_and_backslashes():
-    from pdw_casadi.studies.scaling import problem_toml
+    from pdw_casadi.model.problem import problem_toml
 
     title = 'a "quoted" title with a back\\slash\tand a tab'
     pb = load_problem("humanlike_6link").replace(title=title)

@@ -12,7 +12,7 @@ from pdw_casadi.cli.contract import (
     output_path,
     run,
 )
-from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem
+from pdw_casadi.model.problem import DEFAULT_PROBLEM, load_problem, problem_toml
 from pdw_casadi.report.scale_report import starting_line, write_scaled_walker, wrote_line
 from pdw_casadi.studies.scale_run import BODIES, run_scale, subject_of
 from pdw_casadi.studies.scaling import (
@@ -21,7 +21,6 @@ from pdw_casadi.studies.scaling import (
     MASS_RANGE_KG,
     SEXES,
     check_scalable,
-    problem_toml,
 )
 
 

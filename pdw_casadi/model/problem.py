@@ -347,6 +347,51 @@ def _check_values(pb: Problem, where) -> None:
         fam.check_anthropometry(anthro, f"{where} ({side} leg)")
 
 
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string (quotes, backslashes and control characters
+    escaped)."""
+    out = []
+    for ch in str(text):
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def problem_toml(problem: Problem, header: str = "") -> str:
+    """A problem as TOML text (the layout :func:`load_problem` reads)."""
+    def table(name, values, units=None):
+        lines = [f"[{name}]"]
+        for k, v in values.items():
+            if isinstance(v, tuple | list):
+                lines.append(f"{k} = [{float(v[0])!r}, {float(v[1])!r}]")
+            else:
+                lines.append(f"{k} = {float(v)!r}")
+        return "\n".join(lines) + "\n"
+
+    parts = [header] if header else []
+    parts.append(f"[walker]\nfamily = {toml_string(problem.family)}\n"
+                 f"title = {toml_string(problem.title)}\n")
+    parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
+    parts.append(table("anthropometry", problem.anthropometry))
+    for side, d in problem.legs.items():
+        if d.get("anthropometry"):
+            parts.append(table(f"anthropometry.{side}", d["anthropometry"]))
+    parts.append(table("compliance", problem.compliance))
+    for side, d in problem.legs.items():
+        if d.get("compliance"):
+            parts.append(table(f"compliance.{side}", d["compliance"]))
+    if problem.compliance_bounds:
+        parts.append(table("compliance_bounds", problem.compliance_bounds))
+    parts.append(table("initial_state", problem.initial_state))
+    parts.append(table("numerics", problem.numerics))
+    parts.append(table("validity", problem.validity))
+    return "\n".join(parts)
+
+
 def load_problem(name_or_path: str | Path) -> Problem:
     """Load and validate a problem: a bundled name (``"humanlike_6link"``) or a TOML path."""
     path = resolve(name_or_path, "problems", ".toml")

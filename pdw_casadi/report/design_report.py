@@ -5,7 +5,7 @@ The design is computed by :func:`pdw_casadi.studies.design_run.run_design`; this
 renders its :class:`~pdw_casadi.studies.design_run.DesignRun`: how far the design got, the
 step lengths and times per leg with their asymmetry, the stride's spectral radius, validity,
 the compliance (and mass distribution) found, each NLP solve and the wall time, and the
-designed walker as TOML (:func:`~pdw_casadi.studies.scaling.problem_toml`, which
+designed walker as TOML (:func:`~pdw_casadi.model.problem.problem_toml`, which
 ``pdw-fixed-point --problem FILE.toml`` re-solves on the stride map). Nothing here solves.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pdw_casadi.studies.scaling import problem_toml
+from pdw_casadi.model.problem import problem_toml
 
 if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
     from pdw_casadi.studies.design_run import DesignRun

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pdw_casadi.studies.scaling import problem_toml
+from pdw_casadi.model.problem import problem_toml
 
 if TYPE_CHECKING:  # the workflow's result type only: rendering needs no solver
     from pdw_casadi.studies.scale_run import ScaleRun
@@ -32,7 +32,7 @@ def write_scaled_walker(run: ScaleRun, path: Path,
                         toml: Callable[..., str] = problem_toml) -> Path:
     """Write the scaled walker (its gait as initial state) to ``path`` as a problem TOML
     file (``toml``: the renderer, default
-    :func:`~pdw_casadi.studies.scaling.problem_toml`); returns ``path``."""
+    :func:`~pdw_casadi.model.problem.problem_toml`); returns ``path``."""
     path = Path(path)
     path.write_text(toml(run.problem, scale_header(run)))
     return path

@@ -73,12 +73,17 @@ from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.gait.timing import fixed_point_timing
 from pdw_casadi.model.faces import walker_faces
 from pdw_casadi.model.gait_data import SIDES, GaitCurves, SideCurves, is_per_side, load_gait_file
-from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, load_problem, problem_from_dict
+from pdw_casadi.model.problem import (
+    DEFAULT_PROBLEM,
+    Problem,
+    load_problem,
+    problem_from_dict,
+    problem_toml,
+)
 from pdw_casadi.model.units import COMPLIANCE_PREFIXES
 from pdw_casadi.studies.scaling import (
     BODY_MAX_RADIUS,
     check_scalable,
-    problem_toml,
     stable_subject_walker,
 )
 

@@ -47,7 +47,12 @@ from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Simulator
 from pdw_casadi.gait.stability import RADIUS_BOUND
 from pdw_casadi.model.gait_data import GaitCurves
-from pdw_casadi.model.problem import DEFAULT_PROBLEM, Problem, ProblemError, load_problem
+from pdw_casadi.model.problem import (
+    DEFAULT_PROBLEM,
+    Problem,
+    ProblemError,
+    load_problem,
+)
 from pdw_casadi.model.system import (
     per_leg_system,
     physical_parameter_names,
@@ -85,20 +90,6 @@ BODY_MAX_RADIUS = RADIUS_BOUND
 
 #: compliance values adapted on the way to a subject's body (the angles stay)
 ADAPTED = ("k_ankle", "c_ankle", "c_knee_flex", "c_knee_ext", "k_knee", "c_knee_stance")
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string (quotes, backslashes and control characters
-    escaped)."""
-    out = []
-    for ch in str(text):
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
 
 
 def reference_height(problem: Problem, sex: str = "female") -> float:
@@ -503,37 +494,6 @@ def stable_subject_walker(mass_kg: float, height_m: float, sex: str = "female",
     out.status, out.spectral_radius = "accepted", best.fixed_point.spectral_radius
     out.valid = bool(best.valid)
     return out
-
-
-def problem_toml(problem: Problem, header: str = "") -> str:
-    """A problem as TOML text (the layout :func:`pdw_casadi.model.problem.load_problem` reads)."""
-    def table(name, values, units=None):
-        lines = [f"[{name}]"]
-        for k, v in values.items():
-            if isinstance(v, tuple | list):
-                lines.append(f"{k} = [{float(v[0])!r}, {float(v[1])!r}]")
-            else:
-                lines.append(f"{k} = {float(v)!r}")
-        return "\n".join(lines) + "\n"
-
-    parts = [header] if header else []
-    parts.append(f"[walker]\nfamily = {toml_string(problem.family)}\n"
-                 f"title = {toml_string(problem.title)}\n")
-    parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
-    parts.append(table("anthropometry", problem.anthropometry))
-    for side, d in problem.legs.items():
-        if d.get("anthropometry"):
-            parts.append(table(f"anthropometry.{side}", d["anthropometry"]))
-    parts.append(table("compliance", problem.compliance))
-    for side, d in problem.legs.items():
-        if d.get("compliance"):
-            parts.append(table(f"compliance.{side}", d["compliance"]))
-    if problem.compliance_bounds:
-        parts.append(table("compliance_bounds", problem.compliance_bounds))
-    parts.append(table("initial_state", problem.initial_state))
-    parts.append(table("numerics", problem.numerics))
-    parts.append(table("validity", problem.validity))
-    return "\n".join(parts)
 
 
 SUBJECTS_FILE = "anthropometry/subjects.csv"
