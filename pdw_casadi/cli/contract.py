@@ -38,7 +38,14 @@ from urllib.parse import urlsplit
 
 from pdw_casadi._version import __version__
 from pdw_casadi.engine import interrupt
-from pdw_casadi.engine.errors import CurveError, GaitDataError, NoGait, ProblemError, UsageError
+from pdw_casadi.engine.errors import (
+    CurveError,
+    GaitDataError,
+    NoGait,
+    ProblemError,
+    UsageError,
+    one_line,
+)
 
 #: exit codes of the contract
 EXIT_OK, EXIT_NO_GAIT, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -46,11 +53,6 @@ EXIT_OK, EXIT_NO_GAIT, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 #: exceptions that are the user's input, reported as ``error: ...`` with exit code 2
 USER_ERRORS = (ProblemError, GaitDataError, CurveError, OSError)
-
-
-def one_line(message: object) -> str:
-    """``message`` as a single line (whitespace runs collapsed)."""
-    return " ".join(str(message).split()) or "unknown error"
 
 
 def fail(message: object, code: int = EXIT_USAGE) -> NoReturn:

@@ -46,5 +46,11 @@ class PoincareError(RuntimeError):
         self.failure = failure
 
 
+def one_line(message: object) -> str:
+    """``message`` as a single line (whitespace runs collapsed): the form of every error a
+    command prints (an exception's text, e.g. a JSON parser's, may span lines)."""
+    return " ".join(str(message).split()) or "unknown error"
+
+
 __all__ = ["CurveError", "GaitDataError", "NoGait", "NoStartGait", "PoincareError",
-           "ProblemError", "UsageError"]
+           "ProblemError", "UsageError", "one_line"]

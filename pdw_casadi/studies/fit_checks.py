@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pdw_casadi.engine.errors import ProblemError, UsageError
+from pdw_casadi.engine.errors import ProblemError, UsageError, one_line
 from pdw_casadi.fit.starts import AtlasEntry
 from pdw_casadi.gait.stride import stride_map
 from pdw_casadi.model.problem import Problem
@@ -34,9 +34,7 @@ def check_atlas_file(problem: Problem, path: Path, same_parameters: bool = True)
             if not all(np.all(np.isfinite(a)) for a in arrays) or e.parameters.size != len(names):
                 raise ValueError(f"entry {e.label!r} has non-finite or missing values")
     except (ValueError, KeyError, TypeError, AttributeError, UnicodeDecodeError) as exc:
-        # one line: a JSON error's message may span lines
-        reason = (f"no key {exc}" if isinstance(exc, KeyError)
-                  else " ".join(str(exc).split()) or "unknown error")
+        reason = f"no key {exc}" if isinstance(exc, KeyError) else one_line(exc)
         raise UsageError(f"--atlas {path}: not a gait atlas ({reason})") from None
     if same_parameters and names != list(problem.parameter_names):
         raise UsageError(f"--atlas {path}: an atlas of a walker with the parameters "
