@@ -36,7 +36,7 @@ from pdw_casadi.engine.errors import NoGait, PoincareError, ProblemError
 from pdw_casadi.fit.core import StepFit
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.fit.starts import select_starts
-from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point
+from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, stability
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Segment
 from pdw_casadi.model.gait_data import GaitCurves
@@ -104,15 +104,11 @@ def plan_of(res) -> tuple:
                  for it in res.sim.steps[0].plan.items)
 
 
-def spectral_radius(J: np.ndarray) -> float:
-    """The largest eigenvalue modulus of ``J`` (-)."""
-    return float(np.max(np.abs(np.linalg.eigvals(J))))
-
-
-def henrici(J: np.ndarray) -> float:
-    """Henrici's relative departure from normality of J (-; 0: normal)."""
+def henrici(J: np.ndarray, eigenvalues: np.ndarray) -> float:
+    """Henrici's relative departure from normality of J (-; 0: normal), from its
+    ``eigenvalues``."""
     fro2 = float(np.sum(J * J))
-    lam2 = float(np.sum(np.abs(np.linalg.eigvals(J)) ** 2))
+    lam2 = float(np.sum(np.abs(eigenvalues) ** 2))
     return float(np.sqrt(max(fro2 - lam2, 0.0) / fro2))
 
 
@@ -131,9 +127,10 @@ def conditioning(pmap: PoincareMap, x, p, samples: int = 10) -> dict:
     A = np.eye(n) - J
     sv = np.linalg.svd(A, compute_uv=False)
     d = np.linalg.solve(A, res)
-    out = {"residual": float(np.max(np.abs(res))), "rho": spectral_radius(J),
+    st = stability(J)  # one eigen-decomposition for the radius and Henrici's number
+    out = {"residual": float(np.max(np.abs(res))), "rho": st.spectral_radius,
            "sigma_min_I_minus_J": float(sv[-1]), "inv_norm": float(1.0 / sv[-1]),
-           "max_entry": float(np.max(np.abs(J))), "henrici": henrici(J),
+           "max_entry": float(np.max(np.abs(J))), "henrici": henrici(J, st.eigenvalues),
            "newton_step": float(np.max(np.abs(d))), "path": []}
     plan0, J_prev = plan_of(r), J
     for k in range(1, samples + 1):
@@ -143,9 +140,10 @@ def conditioning(pmap: PoincareMap, x, p, samples: int = 10) -> dict:
         except PoincareError as e:
             out["path"].append({"t": t, "failure": str(e)})
             break
-        out["path"].append({"t": t, "rho": spectral_radius(rk.dx), "dJ": float(np.max(np.abs(
-            rk.dx - J_prev))), "same_plan": plan_of(rk) == plan0,
-            "residual": float(np.max(np.abs(rk.x_next - x - t * d)))})
+        out["path"].append({"t": t, "rho": stability(rk.dx).spectral_radius,
+                            "dJ": float(np.max(np.abs(rk.dx - J_prev))),
+                            "same_plan": plan_of(rk) == plan0,
+                            "residual": float(np.max(np.abs(rk.x_next - x - t * d)))})
         J_prev = rk.dx
     return out
 
