@@ -110,6 +110,37 @@ def test_stride_free_names_and_bounds(fitted):
     assert opts.radius_bound(1) == opts.max_radius - opts.radius_margin
 
 
+def test_a_stride_takes_each_step_rows_multipliers_from_the_one_step_nlp(fitted):
+    """The stride NLP's shooting rows, built at the symmetric gait, pair up block by block
+    with the one-step NLP's (each step's segment rows with the step's, the leg swap into
+    step 2 and the stride's periodicity with the step's periodicity, step 2's section rows
+    with the section rows): every row gets a multiplier, each step the one step's values,
+    and a row block of another size gets none."""
+    from pdw_casadi.fit.driver import stride_multipliers
+
+    _, _, _, one, stride = fitted
+    lam = np.arange(1.0, len(one.g_names) + 1)
+    out, mapped = stride_multipliers(one.g_names, lam, stride.g_names)
+    assert mapped == len(stride.g_names) == out.size
+    names = np.array(stride.g_names)
+    K = len(one.specs)
+    assert len(stride.specs) == 2 * K
+    for k in range(K):
+        a = out[names == f"continuity[{k}]"]
+        b = out[names == f"continuity[{k + K}]"]
+        assert np.array_equal(a, b) and np.array_equal(a, lam[np.array(one.g_names) ==
+                                                             f"continuity[{k}]"])
+    per = lam[np.array(one.g_names) == "periodicity"]
+    assert np.array_equal(out[names == "step_link[1]"], per)
+    assert np.array_equal(out[names == "periodicity"], per)
+    assert np.array_equal(out[names == "section[1]"], out[names == "section"])
+    cut = [n for n in one.g_names if not n.startswith("continuity[0]")] + ["continuity[0]"]
+    out2, mapped2 = stride_multipliers(cut, np.ones(len(cut)), stride.g_names)
+    assert not out2[names == "continuity[0]"].any()
+    assert not out2[names == f"continuity[{K}]"].any()
+    assert mapped2 == mapped - 2 * int((names == "continuity[0]").sum())
+
+
 def _candidate(radius: float, steps: int, max_radius: float = 0.91, valid: bool = True,
                deviation: float = 0.0):
     """A checked gait of the ``steps``-step map whose spectral radius is ``radius`` (no

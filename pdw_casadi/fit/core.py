@@ -225,9 +225,10 @@ def fit_gait(problem, human, options: FitOptions | None = None, log=print,
 
 def symmetric_start(problem, sides: SideCurves, opts: FitOptions, log=print):
     """The per-leg fit's start on a walker with equal legs: (section state, step parameters,
-    label, the start fit's solves, notes). ``opts.start`` "fit": the one-step fit to the
-    mean of both sides (:func:`fit_gait`), "atlas" (or when that fit finds no stable valid
-    gait): the atlas or problem gait that fits the mean best."""
+    label, the start fit's solves, notes, its NLP solution with multipliers or None).
+    ``opts.start`` "fit": the one-step fit to the mean of both sides (:func:`fit_gait`),
+    "atlas" (or when that fit finds no stable valid gait): the atlas or problem gait that
+    fits the mean best."""
     mean = sides.mean()
     notes: list[str] = []
     if opts.start == "fit":
@@ -236,7 +237,7 @@ def symmetric_start(problem, sides: SideCurves, opts: FitOptions, log=print):
         cand = res.best
         if cand is not None:
             return cand.state, cand.parameters, "symmetric fit to the mean of both sides", \
-                res.solves, res.notes
+                res.solves, res.notes, cand.warm
         notes = [*res.notes, "the symmetric start fit found no stable valid gait; starting "
                              "from the atlas"]
         log(notes[-1])
@@ -245,7 +246,7 @@ def symmetric_start(problem, sides: SideCurves, opts: FitOptions, log=print):
                           fallback=False)
     if not fp.converged:
         raise NoGait(f"the start gait {start.label} has no fixed point")
-    return fp.state, fp.parameters, start.label, [], notes
+    return fp.state, fp.parameters, start.label, [], notes, None
 
 
 def fit_sides(problem, sides: SideCurves, options: FitOptions | None = None,
@@ -269,8 +270,9 @@ def fit_sides(problem, sides: SideCurves, options: FitOptions | None = None,
             raise NoGait(f"{problem.name}: no stride fixed point near its initial state")
         x, theta, label, solves, notes = fp0.state, fp0.parameters, "the problem's own " \
             "stride gait", [], []
+        warm = None
     else:
-        x, p, label, solves, notes = symmetric_start(problem, sides, opts, log)
+        x, p, label, solves, notes, warm = symmetric_start(problem, sides, opts, log)
         theta = physical_parameter_vector(problem.with_parameters(p))
     solves = list(solves)
     start = evaluate_stride(smap, (x, x), theta, sides, opts.resim_steps, opts.resim_tol,
@@ -280,7 +282,8 @@ def fit_sides(problem, sides: SideCurves, options: FitOptions | None = None,
                   "scores": None if start is None else start.scores,
                   "curves": None if start is None else start.report["curves"]}
     fit = SidesFit(problem, sides, opts, label, log=log)
-    rounds, more, more_notes = fit_rounds(fit, x, theta, opts, log=log)
+    rounds, more, more_notes = fit_rounds(fit, x, theta, opts, log=log,
+                                          warm=warm if opts.stride_warm_start else None)
     solves += more
     notes = list(notes) + more_notes
     good = [c for c in rounds if c.good]

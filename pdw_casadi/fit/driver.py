@@ -4,6 +4,7 @@ errors as extra unknowns, the optional timing term and the stability row."""
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass
 
@@ -37,6 +38,77 @@ class WarmStart:
     lam_w: np.ndarray
     lam_shooting: np.ndarray
     lam_row: float | None
+    #: the names of the shooting rows (``ShootingNLP.g_names``) and of the free parameters
+    #: (``ShootingNLP.free``) of the NLP it solved, and its stability row's value there:
+    #: what maps it onto a stride's NLP (:func:`stride_multipliers`; None: not kept)
+    rows: tuple[str, ...] | None = None
+    free: tuple[str, ...] | None = None
+    row_value: float | None = None
+
+
+_SEGMENT_ROW = re.compile(r"^(\w+)\[(\d+)\](.*)$")
+
+
+def _row_key(name: str, n_segments: int) -> str:
+    """A shooting row's name with its segment index taken modulo the step's segments and a
+    later step's section rows named as the first step's: the name of the same row in a
+    one-step NLP (``step_link[i]``, the leg swap into step i, is the one-step NLP's
+    ``periodicity``)."""
+    m = _SEGMENT_ROW.match(name)
+    if m is None:
+        return name
+    word, k, rest = m.group(1), int(m.group(2)), m.group(3)
+    if word == "section":
+        return "section"
+    if word == "step_link":
+        return "periodicity"
+    return f"{word}[{k % n_segments}]{rest}"
+
+
+def _blocks(names) -> list[tuple[str, int, int]]:
+    """Runs of equal names: (name, first row, rows)."""
+    out, i = [], 0
+    names = list(names)
+    while i < len(names):
+        j = i
+        while j < len(names) and names[j] == names[i]:
+            j += 1
+        out.append((names[i], i, j - i))
+        i = j
+    return out
+
+
+def stride_multipliers(one_step_rows, lam, stride_rows) -> tuple[np.ndarray, int]:
+    """The multipliers of a stride NLP's shooting rows (names ``stride_rows``) from those
+    ``lam`` of a one-step NLP of the same gait (names ``one_step_rows``): every block of
+    rows of a step takes the multipliers of the same block of the one step (by
+    :func:`_row_key`; a block that appears in both steps takes them twice). At a symmetric
+    gait each step carries one leg's gait cycle, as the one step carries the cycle once,
+    so the step's rows keep the one step's multipliers. A block whose row count differs
+    (the NLPs were built from different gaits) is left at 0. Returns (multipliers, rows
+    mapped)."""
+    src = _blocks(one_step_rows)
+    n_seg = 1 + max((int(m.group(2)) for m in map(_SEGMENT_ROW.match, one_step_rows)
+                     if m and m.group(1) == "continuity"), default=0)
+    lam = np.asarray(lam, float)
+    by_key: dict[str, list[tuple[int, int]]] = {}
+    for name, i, n in src:
+        by_key.setdefault(_row_key(name, n_seg), []).append((i, n))
+    out = np.zeros(len(stride_rows))
+    seen: dict[str, int] = {}
+    mapped = 0
+    for name, i, n in _blocks(stride_rows):
+        key = _row_key(name, n_seg)
+        occ = seen.get(key, 0)
+        seen[key] = occ + 1
+        cands = by_key.get(key)
+        if not cands:
+            continue
+        j, m = cands[occ % len(cands)]
+        if m == n:
+            out[i: i + n] = lam[j: j + n]
+            mapped += n
+    return out, mapped
 
 
 def stance_pct_expr(nlp) -> ca.MX:
@@ -128,12 +200,13 @@ class FitSolver:
 
     def warm_point(self, warm: WarmStart) -> FeasibleIterate | None:
         """The full IPOPT point (unknowns and multipliers) of a stored solution ``warm`` of
-        an NLP of the same shape (None: its shape differs from this one's). The curve errors
+        an NLP of the same shape; for a stride, of the one-step NLP of its start gait
+        (:meth:`stride_point`); None: neither. The curve errors
         and their rows' multipliers are this fit's own: at E = err(w) the objective's
         stationarity in E gives lam_E = -2 E / SS_tot exactly; a knee-floor row starts at 0."""
         if warm.w.size != self.n_w or warm.lam_shooting.size != self.n_shooting or \
                 (self.row is None) != (warm.lam_row is None):
-            return None
+            return self.stride_point(warm)
         w = np.clip(warm.w, self.lo, self.hi)
         e = self.err(w).full().ravel()
         lam_e, o = [], 0
@@ -151,7 +224,56 @@ class FitSolver:
         lam_g = out["lam_g"]
         return WarmStart(out["w"].copy(), out["lam_x"][: self.n_w].copy(),
                          lam_g[: self.n_shooting].copy(),
-                         None if self.row is None else float(lam_g[-1]))
+                         None if self.row is None else float(lam_g[-1]),
+                         rows=tuple(self.nlp.g_names), free=tuple(self.nlp.free),
+                         row_value=None if self.row is None else
+                         float(self.row.value(out["w"])))
+
+    def stride_point(self, warm: WarmStart) -> FeasibleIterate | None:
+        """This stride NLP's start (its own ``w0``, built by simulating the start gait)
+        with multipliers mapped from a one-step solution ``warm`` of the same symmetric
+        gait (:func:`stride_multipliers`): the shooting rows by name, each leg's
+        compliance bound and each step's durations as the one step's, the curve rows
+        exactly (as :meth:`warm_point`), the stability row's as the one step's divided by
+        the one step's row value when the stride's row is at its bound at the start
+        (along a symmetric change the stride's row moves 2 rho times the step's; the
+        stride's objective, two gait cycles, moves twice the step's), else 0. None: not a
+        stride, or ``warm`` kept no names, or the segments do not pair up."""
+        nlp = self.nlp
+        if nlp.n_steps != 2 or warm.rows is None or warm.free is None:
+            return None
+        n_seg = 1 + max((int(m.group(2)) for m in map(_SEGMENT_ROW.match, warm.rows)
+                         if m and m.group(1) == "continuity"), default=0)
+        if len(nlp.specs) != 2 * n_seg:
+            return None
+        lam_s, _ = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names)
+        w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
+        e = self.err(w).full().ravel()
+        lam_e, o = [], 0
+        for target, E in self.E.items():
+            lam_e.append(-2.0 * e[o: o + E.shape[1]] / self.ss[target])
+            o += E.shape[1]
+        # unknowns: xs, pf, T, the nodes, xs of step 2; only pf and T have bounds
+        ns = ns_src = nlp.xs.shape[0]  # both start with the same section state
+        lam_w = np.zeros(self.n_w)
+        for j, name in enumerate(nlp.free):
+            base = name.rsplit(".", 1)[-1]
+            if base in warm.free:
+                lam_w[ns + j] = warm.lam_w[ns_src + warm.free.index(base)]
+        o_t, o_t_src = ns + len(nlp.free), ns_src + len(warm.free)
+        for k in range(len(nlp.specs)):
+            lam_w[o_t + k] = warm.lam_w[o_t_src + k % n_seg]
+        n_floor = self.lbg.size - self.n_shooting - e.size - (self.row is not None)
+        lam_row = []
+        if self.row is not None:
+            lam_row = [0.0]
+            v = self.row.value(w)
+            if warm.lam_row is not None and warm.row_value and np.isfinite(v) and \
+                    v >= self.bound - self.opts.tol:
+                lam_row = [warm.lam_row / warm.row_value]
+        lam_g = np.r_[lam_s, *lam_e, np.zeros(n_floor), lam_row]
+        return FeasibleIterate(-1, math.nan, np.r_[w, e], math.nan,
+                               np.r_[lam_w, np.zeros(e.size)], lam_g)
 
     def r2_of(self, x) -> dict:
         """Per target, 1 - sum E^2 / SS_tot at the NLP unknowns ``x`` (w, E)."""

@@ -165,6 +165,11 @@ class FitOptions:
     #: the entry's active set, which the small barrier then crawls along;
     #: docs/results/fit.md), so it is off
     atlas_warm_start: bool = False
+    #: start the stride NLP of a per-leg fit from the symmetric fit's NLP solution with
+    #: its multipliers mapped onto the stride's rows
+    #: (:meth:`~pdw_casadi.fit.driver.FitSolver.stride_point`) and IPOPT's ``warm_ipopt``
+    #: options, instead of from the symmetric gait alone (docs/results/per-leg-fit.md)
+    stride_warm_start: bool = True
     #: IPOPT's options of a warm restart from a kept iterate with its multipliers: the
     #: iterate is taken as it is (tiny bound pushes) and the barrier starts small, so that
     #: the restart does not leave the point it starts from

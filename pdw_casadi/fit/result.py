@@ -78,6 +78,10 @@ class Candidate:
     #: a stride's per-leg report (:func:`~pdw_casadi.gait.stride.stride_report`, with its
     #: curves); None for one step
     report: dict | None = None
+    #: the NLP's solution with its multipliers and row names, when this gait is IPOPT's
+    #: converged answer (:class:`~pdw_casadi.fit.driver.WarmStart`): a stride fit starts
+    #: from the symmetric fit's with them (:attr:`FitOptions.stride_warm_start`)
+    warm: object | None = field(default=None, repr=False)
 
     @property
     def certified(self) -> bool:

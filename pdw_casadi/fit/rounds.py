@@ -114,8 +114,9 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
             solver = fit.solver(nlp)
             point = solver.warm_point(warm) if warm is not None and rnd == 0 else None
             if point is not None:
-                log(f"{fit.where(rnd)}: warm start from the stored solution at the start, "
-                    f"with its multipliers")
+                log(f"{fit.where(rnd)}: warm start from the "
+                    + ("stored solution at the start" if fit.steps == 1 else
+                       "symmetric fit's solution") + ", with its multipliers")
             out = solver.solve(nlp.w0, warm=point)
         else:
             nlp, solver, k = restart_from
@@ -160,6 +161,8 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
             log(notes[-1])
         if cand is not None:
             cand.solver_status = out["status"]
+            if out["success"] and fallback is None:
+                cand.warm = solver.warm_start_of(out)
             rounds.append(cand)
         rnd += 1
         # a restart helps a solve wandering infeasible; one zig-zagging on a bound already
