@@ -982,8 +982,9 @@ def test_the_defaults_the_pages_quote(checks):
                    o.iterate_radius_slack)
     checks.passage("fit.md", r"The NLP now holds knee R² NUM above the floor "
                    r"\(`FitOptions\.knee_floor_margin`\)", o.knee_floor_margin)
-    checks.passage("fit.md", r'`stability_power=NUM` \(now the default\) bounds ‖J⁸‖_F\^\(1/8\) '
-                   r"by NUM", o.stability_power, o.radius_bound(1))
+    checks.passage("fit.md", r"`stability_power=NUM` \(now the default\) bounds "
+                   r"\$\\lVert J\^8 \\rVert_F\^\{1/8\}\$ by NUM", o.stability_power,
+                   o.radius_bound(1))
     checks.passage("fit.md", r"\(`FitOptions\.rounds`, default NUM\)", o.rounds)
     checks.passage("fit.md", r"\*\*`FitOptions\.sample_stride` 2 to NUM\*\*", o.sample_stride)
     checks.passage("fit.md", r"IPOPT's `tol` \(NUM, in the rows' own units", o.tol)
