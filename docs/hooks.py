@@ -109,12 +109,46 @@ def figure_walker(root: Path):
                              "just after foot strike)")
 
 
+def _cohort_table(root: Path):
+    import pandas as pd
+
+    return pd.read_csv(root / "docs" / "results" / "cohort.csv")
+
+
+def figure_cohort_r2(root: Path):
+    """R^2 per subject of the cohorts of ``docs/results/cohort.csv`` (the plotting code of
+    ``pdw-cohort``'s ``r2_by_subject.png``)."""
+    from pdw_casadi.report.cohort import plot_r2_by_subject
+
+    return plot_r2_by_subject(_cohort_table(root))
+
+
+def figure_cohort_compliance(root: Path):
+    """The fitted compliance against body mass of the cohorts of ``docs/results/cohort.csv``
+    (the plotting code of ``pdw-cohort``'s ``compliance.png``)."""
+    from pdw_casadi.report.cohort import plot_compliance
+
+    return plot_compliance(_cohort_table(root))
+
+
 #: name -> (function of the repository root returning a Figure, caption)
 FIGURES = {
     "walker": (figure_walker,
                "The paper's 6-link walker at the section state of "
                "`problems/humanlike_6link.toml`, drawn by the docs build with "
                "`pdw_casadi.report.plots.plot_walker`."),
+    "cohort_r2": (figure_cohort_r2,
+                  "R² per subject of the three cohorts below (symmetric fits on the paper's "
+                  "body and on their own, per-side fits on their own; a per-side fit's knee "
+                  "and hip R² the mean of its legs), drawn by the docs build from "
+                  "`docs/results/cohort.csv` with `pdw-cohort`'s plotting code "
+                  "(`r2_by_subject.png`)."),
+    "cohort_compliance": (figure_cohort_compliance,
+                          "The fitted k_knee and k_ankle against body mass: the symmetric fits "
+                          "on the subjects' own bodies (the paper-body rows have no body mass, "
+                          "and the page does not list the per-side compliance), drawn by the "
+                          "docs build from `docs/results/cohort.csv` with `pdw-cohort`'s "
+                          "plotting code (`compliance.png`)."),
 }
 
 
