@@ -10,6 +10,12 @@ The notebooks are pages too: each ``notebooks/NN_name.ipynb`` becomes the page
 ``notebooks/NN_name.md``, generated at build time with the outputs saved in the notebook (the
 build never runs a notebook, and nothing is written into the repository), listed in the nav's
 section "Notebooks"; a link to a notebook file in a page becomes a link to its page.
+
+Figures are drawn at build time by the current code, never stored: a line
+``<!-- figure: walker -->`` in a page becomes that figure (a PNG of the site,
+``figures/<name>.png``, drawn by the function of :data:`FIGURES` from the bundled problems
+and the data of the repository) with its caption; a name without a function fails the
+build.
 """
 
 from __future__ import annotations
@@ -84,8 +90,95 @@ def render(command: str) -> str:
             f"### Exit codes\n\n{exit_codes()}\n")
 
 
+# -- figures: drawn by the current code when the site is built (never a stored image) --------
+FIGURE = re.compile(r"^<!-- figure: ([a-z0-9_-]+) -->$", re.MULTILINE)
+FIGURES_DIR = "figures"  # their folder on the site
+
+
+def figure_walker(root: Path):
+    """The 6-link walker of ``problems/humanlike_6link.toml`` at its section state, labelled
+    (:func:`pdw_casadi.report.plots.plot_walker`)."""
+    from pdw_casadi.model.problem import load_problem
+    from pdw_casadi.model.system import hybrid_system
+    from pdw_casadi.report.plots import plot_walker
+
+    problem = load_problem(root / "problems" / "humanlike_6link.toml")
+    return plot_walker(hybrid_system(problem), problem.state_vector(),
+                       problem.parameter_vector(),
+                       title=f"{problem.name} at its section state (the paper's Table 2: "
+                             "just after foot strike)")
+
+
+def _cohort_table(root: Path):
+    import pandas as pd
+
+    return pd.read_csv(root / "docs" / "results" / "cohort.csv")
+
+
+def figure_cohort_r2(root: Path):
+    """R^2 per subject of the cohorts of ``docs/results/cohort.csv`` (the plotting code of
+    ``pdw-cohort``'s ``r2_by_subject.png``)."""
+    from pdw_casadi.report.cohort import plot_r2_by_subject
+
+    return plot_r2_by_subject(_cohort_table(root))
+
+
+def figure_cohort_compliance(root: Path):
+    """The fitted compliance against body mass of the cohorts of ``docs/results/cohort.csv``
+    (the plotting code of ``pdw-cohort``'s ``compliance.png``)."""
+    from pdw_casadi.report.cohort import plot_compliance
+
+    return plot_compliance(_cohort_table(root))
+
+
+#: name -> (function of the repository root returning a Figure, caption)
+FIGURES = {
+    "walker": (figure_walker,
+               "The paper's 6-link walker at the section state of "
+               "`problems/humanlike_6link.toml`, drawn by the docs build with "
+               "`pdw_casadi.report.plots.plot_walker`."),
+    "cohort_r2": (figure_cohort_r2,
+                  "R² per subject of the three cohorts below (symmetric fits on the paper's "
+                  "body and on their own, per-side fits on their own; a per-side fit's knee "
+                  "and hip R² the mean of its legs), drawn by the docs build from "
+                  "`docs/results/cohort.csv` with `pdw-cohort`'s plotting code "
+                  "(`r2_by_subject.png`)."),
+    "cohort_compliance": (figure_cohort_compliance,
+                          "The fitted k_knee and k_ankle against body mass: the symmetric fits "
+                          "on the subjects' own bodies (the paper-body rows have no body mass, "
+                          "and the page does not list the per-side compliance), drawn by the "
+                          "docs build from `docs/results/cohort.csv` with `pdw-cohort`'s "
+                          "plotting code (`compliance.png`)."),
+}
+
+
+def figure_png(name: str, root: Path) -> bytes:
+    """The PNG of figure ``name`` of :data:`FIGURES`, drawn now."""
+    if name not in FIGURES:
+        raise PluginError(f"docs: no figure {name!r} (figures: {sorted(FIGURES)})")
+    fig = FIGURES[name][0](root)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    return buf.getvalue()
+
+
+def figure_markdown(name: str, page_uri_: str) -> str:
+    """The image of figure ``name`` with its caption, linked relative to the page."""
+    src = posixpath.relpath(f"{FIGURES_DIR}/{name}.png", posixpath.dirname(page_uri_))
+    caption = FIGURES[name][1]
+    return f"![{caption}]({src})\n\n*{caption}*"
+
+
 def on_files(files, config):
     from pdw_casadi.cli import COMMANDS
+
+    wanted = sorted({name for f in files if f.src_uri.endswith(".md") and f.abs_src_path
+                     for name in FIGURE.findall(f.content_string)})
+    for name in wanted:
+        uri = f"{FIGURES_DIR}/{name}.png"
+        if files.get_file_from_path(uri) is not None:
+            raise PluginError(f"docs: {uri} is drawn by the build, but the docs hold a file {uri}")
+        files.append(File.generated(config, uri, content=figure_png(name, _root(config))))
 
     pages = {f.src_uri: f for f in files if f.src_uri.endswith(".md")}
     for name in COMMANDS:
@@ -108,6 +201,7 @@ def on_files(files, config):
 def on_page_markdown(markdown, page, config, files):
     if page.file.abs_src_path:  # a page of docs/: its links to notebook files go to their pages
         markdown = notebook_links(markdown, page.file, config)
+    markdown = FIGURE.sub(lambda m: figure_markdown(m.group(1), page.file.src_uri), markdown)
     return MARKER.sub(lambda m: render(m.group(1)), markdown)
 
 

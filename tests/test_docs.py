@@ -25,6 +25,11 @@ ABSOLUTE_PATH = re.compile(r"(?<![\w~.:/-])(/(?:[A-Za-z_][\w.-]*/)+)")
 UP_PATH = re.compile(r"(?<![\w.])((?:\.\./)+[\w.-]+)")
 
 
+#: (page of the site, figure) of every figure the docs build draws (docs/hooks.py, FIGURES)
+FIGURE_PAGES = [("model", "walker"), ("results/cohort", "cohort_r2"),
+                ("results/cohort", "cohort_compliance")]
+
+
 def _load(path: Path, name: str):
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
@@ -59,6 +64,14 @@ def test_site_builds_strictly(tmp_path):
     # a docstring role became a link to its object
     assert 'href="#pdw_casadi.gait.design.symmetry_conditions"' in gait
     assert not list(site.rglob("*.py")), "build helpers copied into the site"
+    # the figures drawn by the build (docs/hooks.py, FIGURES): each is a PNG of the site,
+    # shown on its page, and none is a stored file of docs/
+    for page, name in FIGURE_PAGES:
+        html = (site / page / "index.html").read_text(encoding="utf-8")
+        assert f'src="../../figures/{name}.png"' in html or \
+            f'src="../figures/{name}.png"' in html, (page, name)
+        assert (site / "figures" / f"{name}.png").read_bytes()[:4] == b"\x89PNG", name
+    assert not (DOCS / "figures").exists()
 
 
 def test_every_command_has_a_page_in_the_nav():

@@ -144,3 +144,58 @@ def test_the_six_link_limit_cycle_key_explains_the_papers_labels(table2_step, pr
     for ax, boxes in zip(fig.axes, _label_boxes(fig), strict=True):
         assert [t.get_text() for t in ax.texts] == ["a+", "b", "c-", "c+", "a-"]
         assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def test_the_walker_diagram_draws_the_chain_of_the_model_page():
+    """plot_walker (the docs' walker figure): the drawn points are those of the chain of
+    docs/model.md at the section state of ``humanlike_6link.toml``, computed here from the
+    problem's lengths alone: stance toe at the origin, both feet flat on the slope, each
+    link at the absolute angle (from the downward vertical, counter-clockwise) of its
+    coordinate, which the figure labels."""
+    from pdw_casadi.model.problem import load_problem
+    from pdw_casadi.model.system import hybrid_system
+    from pdw_casadi.report.plots import link_angles, plot_walker
+
+    problem = load_problem("humanlike_6link")
+    hs = hybrid_system(problem)
+    p = problem.parameter_vector()
+    fig = Figure()
+    ax = fig.subplots()
+    assert plot_walker(hs, problem.state_vector(), p, ax=ax) is fig
+    drawn = {line.get_gid(): np.array([line.get_xdata()[0], line.get_ydata()[0]])
+             for line in ax.lines if line.get_gid()}
+    x = np.asarray(hs.section_to_full(problem.state_vector(), p)).ravel()
+    q = dict(zip(hs.model.q_names, x, strict=False))
+    a, gamma = problem.anthropometry, problem.slope
+
+    def d(angle):  # the unit vector of a link from its proximal end (docs/model.md)
+        return np.array([np.sin(angle), -np.cos(angle)])
+
+    toe1 = np.array([q["x_t1"], q["y_t1"]])
+    ankle1 = toe1 - a["l_ft"] * d(q["qf1"])
+    knee1 = ankle1 - a["l_s"] * d(q["q1"])
+    hip = knee1 - a["l_t"] * d(q["q2"])
+    knee2 = hip + a["l_t"] * d(q["q3"])
+    ankle2 = knee2 + a["l_s"] * d(q["q4"])
+    toe2 = ankle2 + a["l_ft"] * d(q["qf2"])
+    chain = {"toe1": toe1, "ankle1": ankle1, "knee1": knee1, "hip": hip, "knee2": knee2,
+             "ankle2": ankle2, "toe2": toe2, "heel1": ankle1 - a["l_fh"] * d(q["qf1"]),
+             "heel2": ankle2 - a["l_fh"] * d(q["qf2"])}
+    assert set(drawn) == set(chain)
+    for name, point in chain.items():
+        np.testing.assert_allclose(drawn[name], point, atol=1e-12, err_msg=name)
+    n = np.array([np.sin(gamma), np.cos(gamma)])  # the ground's normal: heights P . n
+    assert np.allclose(drawn["toe1"], 0.0)
+    for name in ("toe1", "heel1", "toe2"):
+        assert abs(drawn[name] @ n) < 1e-12, name  # the feet on the ground
+    assert abs(q["qf1"] - (np.pi / 2 - gamma)) < 1e-12  # the stance foot flat
+    assert drawn["hip"] @ n > 0.7  # the hip well above the ground
+    # every link is labelled with its coordinate, whose value it is drawn at
+    assert link_angles(hs, x, p) == {("heel1", "toe1"): "qf1", ("knee1", "ankle1"): "q1",
+                                     ("hip", "knee1"): "q2", ("hip", "knee2"): "q3",
+                                     ("knee2", "ankle2"): "q4", ("heel2", "toe2"): "qf2"}
+    labels = " ".join(t.get_text() for t in ax.texts)
+    for name in ("q_{1}", "q_{2}", "q_{3}", "q_{4}", "q_{f1}", "q_{f2}"):
+        value = np.degrees(q[name.replace("_{", "").replace("}", "")])
+        assert f"${name}$ = {value:+.1f}°" in labels, name
+    assert f"slope $\\gamma$ = {gamma:.4f} rad" in labels

@@ -319,6 +319,60 @@ def test_cohort_page_each_subjects_own_body(workdir, checks):
     checks.verify()
 
 
+def test_cohort_page_the_tables_are_the_stored_cohort_table(checks):
+    """cohort.md: ``docs/results/cohort.csv``, from which the site build draws the page's
+    figures (docs/hooks.py), holds exactly the fits of its three tables (on the paper's
+    body, per side, on their own body), number for number, in the columns ``pdw-cohort``
+    writes: a per-side fit's ``r2_knee`` and ``r2_hip`` the mean of its legs, the bodies'
+    mass and height those of ``data/anthropometry/subjects.csv``."""
+    stored = pd.read_csv(RESULTS / "cohort.csv", dtype=str, keep_default_na=False)
+    bodies = pd.read_csv(DATA / "anthropometry" / "subjects.csv").set_index("subject_id")
+    tables = {("symmetric", "paper"): table("cohort.md", "| rho | status |"),
+              ("sides", "own"): table("cohort.md", "stride rho"),
+              ("symmetric", "own"): table("cohort.md", "body: spectral radius")}
+    assert len(stored) == sum(len(rows) for rows in tables.values())
+    for (kind, body), rows in tables.items():
+        mine = stored[(stored["kind"] == kind) & (stored["body"] == body)]
+        assert list(mine["subject_id"]) == [r["subject"] for r in rows], (kind, body)
+        for (_, got), row in zip(mine.iterrows(), rows, strict=True):
+            sid = row["subject"]
+
+            def same(column, printed, got=got, sid=sid, kind=kind, body=body):
+                checks.truth("cohort.md", f"cohort.csv {sid} {kind} {body}: {column} "
+                             f"{got[column]!r}, the table prints {printed!r}",
+                             got[column] == printed)
+
+            if body == "own":
+                checks.truth("cohort.md", f"cohort.csv {sid}: the body of subjects.csv",
+                             float(got["mass_kg"]) == bodies.loc[sid, "mass_kg"]
+                             and float(got["height_m"]) == bodies.loc[sid, "height_m"])
+            else:
+                same("mass_kg", "")
+            if kind == "sides":
+                for curve in ("knee", "hip"):
+                    left, right = row[f"{curve} R² left / right"].split(" / ")
+                    same(f"r2_{curve}_left", left)
+                    same(f"r2_{curve}_right", right)
+                    checks.number("cohort.md", got[f"r2_{curve}"],
+                                  (float(left) + float(right)) / 2,
+                                  what=f"{sid}'s per-side mean {curve} R²")
+                same("r2_thigh", row["thigh R²"])
+                same("stride_spectral_radius", row["stride rho"])
+                same("iterations", row["iterations (solves)"].split()[0])
+                same("status", "accepted")  # "All four accepted" under the table
+                continue
+            r2 = (("knee $R^2$", "hip $R^2$", "thigh $R^2$") if body == "paper"
+                  else ("knee", "hip", "thigh"))
+            for curve, header in zip(("knee", "hip", "thigh"), r2, strict=True):
+                same(f"r2_{curve}", row[header])
+            same("k_knee_N_m_per_rad", row["k_knee (N m/rad)"])
+            same("k_ankle_N_m_per_rad", row["k_ankle (N m/rad)"])
+            same("spectral_radius", row["rho"])
+            same("iterations", row["iterations"])
+            same("status", row.get("status", "accepted"))
+    checks.verify()
+
+
 def test_cohort_page_the_eight_step_bound_at_the_kneed_walkers_start(checks):
     """cohort.md: the kneed walker's start (its problem file's own gait; it has no atlas)
     has an eight-step bound ||J^8||_F^(1/8) of 1.088, above the fit's 0.9."""
@@ -982,8 +1036,9 @@ def test_the_defaults_the_pages_quote(checks):
                    o.iterate_radius_slack)
     checks.passage("fit.md", r"The NLP now holds knee R² NUM above the floor "
                    r"\(`FitOptions\.knee_floor_margin`\)", o.knee_floor_margin)
-    checks.passage("fit.md", r'`stability_power=NUM` \(now the default\) bounds ‖J⁸‖_F\^\(1/8\) '
-                   r"by NUM", o.stability_power, o.radius_bound(1))
+    checks.passage("fit.md", r"`stability_power=NUM` \(now the default\) bounds "
+                   r"\$\\lVert J\^8 \\rVert_F\^\{1/8\}\$ by NUM", o.stability_power,
+                   o.radius_bound(1))
     checks.passage("fit.md", r"\(`FitOptions\.rounds`, default NUM\)", o.rounds)
     checks.passage("fit.md", r"\*\*`FitOptions\.sample_stride` 2 to NUM\*\*", o.sample_stride)
     checks.passage("fit.md", r"IPOPT's `tol` \(NUM, in the rows' own units", o.tol)

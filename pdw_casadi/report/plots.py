@@ -29,8 +29,8 @@ from matplotlib.textpath import text_to_path
 
 from pdw_casadi.model.faces import WalkerFaces, faces_from_trajectory
 
-__all__ = ["phase_spans", "physical_leg_angles", "plot_angles", "plot_fit", "plot_limit_cycle",
-           "plot_stick", "plot_sweep", "snapshot_rows"]
+__all__ = ["link_angles", "phase_spans", "physical_leg_angles", "plot_angles", "plot_fit",
+           "plot_limit_cycle", "plot_stick", "plot_sweep", "plot_walker", "snapshot_rows"]
 
 LEG_COLORS = {"A": "tab:blue", "B": "tab:red"}
 #: name prefixes of a foot's drawn points: a link between two of them is drawn as the sole
@@ -280,6 +280,150 @@ def plot_stick(hs, trajectory: pd.DataFrame, p, path=None, n: int = 8,
     fig.suptitle(title or f"One step on a slope of {gamma:.4f} rad "
                  f"({np.degrees(gamma):.2f} deg)", fontsize=10)
     return _save(fig, path, 110)
+
+
+def _angle_from_vertical(v) -> float:
+    """The absolute angle (rad) of the direction ``v`` from the downward vertical,
+    counter-clockwise positive: ``v`` is a positive multiple of (sin q, -cos q)."""
+    return float(np.arctan2(v[0], -v[1]))
+
+
+def link_angles(hs, x, p, tol: float = 1e-9) -> dict[tuple[str, str], str]:
+    """The coordinate each drawn link of the walker is the absolute angle of, at the full
+    state ``x`` (the integrated state [q; dq; ...], rad and rad/s) and parameters ``p``:
+    {(proximal, distal): name of the coordinate} for every link (a pair of
+    ``hs.model.links``) whose unit vector from proximal to distal end is
+    (sin q, -cos q) for one of the walker's coordinates q (to ``tol`` rad), the convention of
+    docs/model.md. Links that are no coordinate's (none on the 6-link walker) are left
+    out."""
+    q_names = list(hs.model.q_names)
+    q = np.asarray(x, dtype=float).ravel()[: len(q_names)]
+    pts = dict(zip(hs.point_names, np.asarray(hs.points(x, p)).T, strict=True))
+    out = {}
+    for a, b in hs.model.links:
+        for prox, dist in ((a, b), (b, a)):
+            ang = _angle_from_vertical(pts[dist] - pts[prox])
+            name = next((n for n, v in zip(q_names, q, strict=True)
+                         if abs(np.angle(np.exp(1j * (v - ang)))) < tol), None)
+            if name is not None:
+                out[(prox, dist)] = name
+                break
+    return out
+
+
+def plot_walker(hs, section_state, p, path=None, title: str | None = None, *,
+                ax=None) -> Figure:
+    """The walker at a Poincare section state, labelled: its links, its drawn points by
+    name (toes, heels, ankles, knees, the hip with the upper-body mass), the absolute angle
+    of every link that is a coordinate (from the downward vertical, counter-clockwise
+    positive: a dotted vertical at the link's proximal end and an arc to the link, with the
+    coordinate's name and value in degrees), the slope angle gamma between the horizontal
+    and the ground, and gravity.
+
+    ``section_state``: the section state (``problem.state_vector()``: rad, rad/s), mapped
+    to the full state by the walker's own ``section_to_full``; ``p``: the parameter vector
+    (compliance..., slope in rad: ``problem.parameter_vector()``). Positions in metres, the
+    stance toe at the origin. Each point is drawn as a marker whose ``gid`` is its name
+    (``"hip"``, ``"toe1"``, ...). ``ax``: one Axes. Returns the figure (also written to
+    ``path`` if given).
+    """
+    from matplotlib.patches import Arc
+
+    p = np.asarray(p, dtype=float).ravel()
+    gamma = float(p[hs.model.parameter_names.index("slope")])
+    x = np.asarray(hs.section_to_full(section_state, p), dtype=float).ravel()
+    pts = dict(zip(hs.point_names, np.asarray(hs.points(x, p)).T, strict=True))
+    angles = link_angles(hs, x, p)
+    q = dict(zip(hs.model.q_names, x, strict=False))
+    fig, (ax,) = _axes(ax, 1, 1, (8.0, 6.8))
+    allpts = np.array(list(pts.values()))
+    (x_min, y_min), (x_max, y_max) = allpts.min(axis=0), allpts.max(axis=0)
+    span = float(max(x_max - x_min, y_max - y_min))
+    r_arc = 0.09 * span
+
+    def leg_of(name: str) -> str:
+        return "2" if name.endswith("2") else "1" if name.endswith("1") else ""
+
+    colors = {"1": "tab:blue", "2": "tab:red", "": "0.15"}
+    side = {"1": 1.0, "2": -1.0, "": 0.0}  # labels of leg 1 to the right, of leg 2 left
+    # the ground, and the slope angle gamma at a ground point behind the walker
+    xlo, xhi = x_min - 0.5 * span, x_max + 0.2 * span
+    xs = np.array([xlo, xhi])
+    ax.plot(xs, -xs * np.tan(gamma), color="k", lw=1.2)
+    ax.fill_between(xs, -xs * np.tan(gamma), -xs * np.tan(gamma) - 0.06 * span, color="0.88")
+    xo = x_min - 0.08 * span
+    yo = -xo * np.tan(gamma)
+    r_g = 0.22 * span
+    ax.plot([xo, xo - 1.15 * r_g], [yo, yo], color="0.3", lw=0.8, ls="--")
+    ax.add_patch(Arc((xo, yo), 2 * r_g, 2 * r_g, theta1=180.0 - np.degrees(gamma),
+                     theta2=180.0, color="k", lw=0.9))
+    ax.annotate(f"slope $\\gamma$ = {gamma:.4f} rad ({np.degrees(gamma):.2f}°)",
+                xy=(xo - 1.15 * r_g, yo + r_g * np.sin(gamma)), xytext=(0, 10),
+                textcoords="offset points", ha="left", va="bottom", fontsize=8)
+    # the links and the points
+    for a, b in hs.model.links:
+        leg = leg_of(a) or leg_of(b)
+        foot = a.startswith(FOOT_POINTS) and b.startswith(FOOT_POINTS)
+        ax.plot([pts[a][0], pts[b][0]], [pts[a][1], pts[b][1]], color=colors[leg],
+                lw=4.0 if foot else 2.4, solid_capstyle="round", zorder=2)
+    for name, pt in pts.items():
+        leg, hip = leg_of(name), name == "hip"
+        ax.plot(*pt, "o", ms=13 if hip else 5, color=colors[leg],
+                mfc=colors[leg] if hip else "white", mew=1.2, zorder=3, gid=name)
+        if hip:
+            off, ha, va = (0, 12), "center", "bottom"
+        elif name.startswith("toe"):
+            off, ha, va = (6, 6), "left", "bottom"
+        elif name.startswith(FOOT_POINTS):
+            off, ha, va = (-6, -9), "right", "top"
+        elif name.startswith("ankle"):
+            off, ha, va = (8, 7), "left", "bottom"
+        else:
+            off, ha, va = (9 * side[leg], 0), "left" if side[leg] > 0 else "right", "center"
+        ax.annotate("hip, upper body $m_h$" if hip else name, xy=pt, xytext=off,
+                    textcoords="offset points", fontsize=8, color=colors[leg], ha=ha, va=va,
+                    zorder=4)
+    # the absolute angles: a dotted downward vertical at the proximal end, an arc to the link
+    for (prox, dist), name in angles.items():
+        origin = pts[prox]
+        color = colors[leg_of(prox) or leg_of(dist)]
+        value = float(q[name])
+        r = 0.9 * r_arc if prox.startswith(FOOT_POINTS) else r_arc
+        ax.plot([origin[0], origin[0]], [origin[1], origin[1] - 1.3 * r], color=color,
+                lw=0.8, ls=":", zorder=1)
+        lo, hi = sorted((-90.0, -90.0 + np.degrees(value)))
+        ax.add_patch(Arc(tuple(origin), 2 * r, 2 * r, theta1=lo, theta2=hi, color=color,
+                         lw=0.9, zorder=1))
+        mid = np.radians((lo + hi) / 2)
+        at = origin + r * np.array([np.cos(mid), np.sin(mid)])
+        sign = 1.0 if value >= 0 else -1.0
+        label = (name[0] + "_{" + name[1:] + "}") if len(name) > 1 else name
+        ax.annotate(f"${label}$ = {np.degrees(value):+.1f}°", xy=at,
+                    xytext=(5 * sign, -3), textcoords="offset points", fontsize=8,
+                    color=color, ha="left" if sign > 0 else "right", va="top",
+                    bbox={"fc": "white", "ec": "none", "alpha": 0.8, "pad": 0.3})
+    # gravity, top right
+    gx, gy = x_max + 0.08 * span, y_max
+    ax.annotate("", xy=(gx, gy - 0.16 * span), xytext=(gx, gy),
+                arrowprops={"arrowstyle": "-|>", "color": "k", "lw": 1.0})
+    ax.annotate("gravity", xy=(gx, gy - 0.08 * span), xytext=(5, 0),
+                textcoords="offset points", fontsize=8, va="center")
+    handles = [Line2D([], [], color=colors["1"], lw=2.4,
+                      label="leg 1: stance (leading) at the section"),
+               Line2D([], [], color=colors["2"], lw=2.4,
+                      label="leg 2: swing (trailing) at the section"),
+               Line2D([], [], color="0.3", lw=0.9, ls=":",
+                      label="absolute angle: from the downward vertical,\n"
+                            "counter-clockwise positive")]
+    fig.legend(handles=handles, fontsize=8, ncols=2, loc="outside lower center")
+    ax.set_xlim(xlo, xhi)
+    ax.set_ylim(min(y_min, -xhi * np.tan(gamma)) - 0.12 * span, y_max + 0.1 * span)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("x [m] (horizontal, downhill)")
+    ax.set_ylabel("y [m] (vertical)")
+    ax.grid(True, lw=0.4, alpha=0.4)
+    ax.set_title(title or "The walker at its Poincaré section state", fontsize=10)
+    return _save(fig, path, 120)
 
 
 def _instants(seg: pd.DataFrame, faces: WalkerFaces) -> dict[str, int]:
