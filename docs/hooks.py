@@ -109,6 +109,29 @@ def figure_walker(root: Path):
                              "just after foot strike)")
 
 
+#: the stored output of the sweep of docs/results/sweeps.md (pdw-sweep's sweep.csv and
+#: events.json; tests/test_results_pages.py re-runs the sweep and compares)
+SLOPE_SWEEP = ("docs", "results", "slope_sweep")
+
+
+def figure_slope_sweep(root: Path):
+    """The bifurcation diagram of the paper's gait over the slope from the stored output of
+    ``pdw-sweep`` (``docs/results/slope_sweep/``), drawn by the plotting code of its
+    ``sweep.png`` (:func:`pdw_casadi.report.plots.plot_sweep`)."""
+    import pandas as pd
+
+    from pdw_casadi.gait.bifurcation import BranchEvent
+    from pdw_casadi.report.plots import plot_sweep
+
+    folder = root.joinpath(*SLOPE_SWEEP)
+    summary = json.loads((folder / "events.json").read_text(encoding="utf-8"))
+    events = [BranchEvent(kind=e["kind"], parameter=e["parameter"], value=e["value"],
+                          bracket=tuple(e["bracket"]), reason=e["reason"])
+              for e in summary["events"]]
+    return plot_sweep(pd.read_csv(folder / "sweep.csv"), events, "slope",
+                      title="humanlike_6link: sweep over the slope (rad)")
+
+
 def _cohort_table(root: Path):
     import pandas as pd
 
@@ -137,6 +160,13 @@ FIGURES = {
                "The paper's 6-link walker at the section state of "
                "`problems/humanlike_6link.toml`, drawn by the docs build with "
                "`pdw_casadi.report.plots.plot_walker`."),
+    "slope_sweep": (figure_slope_sweep,
+                    "The branch of the paper's gait over the slope: step length, speed and "
+                    "spectral radius; stable and valid solid, otherwise dashed; BND the "
+                    "gait-pattern boundary, NS the Neimark–Sacker point, LP the fold. Drawn "
+                    "by the docs build with `pdw-sweep`'s plotting code from its stored output "
+                    "`docs/results/slope_sweep/` (the sweep takes minutes, too long for the "
+                    "build; `tests/test_results_pages.py` re-runs it and compares)."),
     "cohort_r2": (figure_cohort_r2,
                   "R² per subject of the three cohorts below (symmetric fits on the paper's "
                   "body and on their own, per-side fits on their own; a per-side fit's knee "

@@ -26,7 +26,8 @@ UP_PATH = re.compile(r"(?<![\w.])((?:\.\./)+[\w.-]+)")
 
 
 #: (page of the site, figure) of every figure the docs build draws (docs/hooks.py, FIGURES)
-FIGURE_PAGES = [("model", "walker"), ("results/cohort", "cohort_r2"),
+FIGURE_PAGES = [("model", "walker"), ("results/sweeps", "slope_sweep"),
+                ("results/cohort", "cohort_r2"),
                 ("results/cohort", "cohort_compliance")]
 
 

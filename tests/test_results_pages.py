@@ -890,6 +890,24 @@ def test_sweeps_page_the_slope_branch(workdir, checks):
     checks.truth("sweeps.md", "stable and valid only between the Neimark-Sacker point and the "
                  "fold", [(r["from_event"], r["to_event"]) for r in ranges]
                  == [("neimark_sacker", "fold")])
+    # the stored output the site build draws the page's figure from (docs/hooks.py) is this
+    # sweep's: the same points and events
+    stored = RESULTS / "slope_sweep"
+    rows, again = pd.read_csv(stored / "sweep.csv"), pd.read_csv(out / "sweep.csv")
+    plotted = ["slope", "branch", "converged", "stable", "valid", "step_length_m",
+               "speed_m_s", "spectral_radius"]
+    checks.truth("sweeps.md", f"the stored sweep.csv has the rows of the sweep ({len(rows)} "
+                 f"against {len(again)})", len(rows) == len(again))
+    if len(rows) == len(again):
+        for col in plotted:
+            same = np.allclose(rows[col].astype(float), again[col].astype(float),
+                               rtol=1e-7, atol=1e-9)
+            checks.truth("sweeps.md", f"the stored sweep.csv's {col} is the sweep's", same)
+    kept = [(e["kind"], e["value"]) for e in read_json(stored / "events.json")["events"]]
+    found = [(e["kind"], e["value"]) for e in result["events"]]
+    checks.truth("sweeps.md", f"the stored events.json's events {kept} are the sweep's {found}",
+                 [k for k, _ in kept] == [k for k, _ in found]
+                 and np.allclose([v for _, v in kept], [v for _, v in found], rtol=1e-7))
     checks.verify()
 
 
