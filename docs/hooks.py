@@ -128,7 +128,10 @@ def figure_slope_sweep(root: Path):
     events = [BranchEvent(kind=e["kind"], parameter=e["parameter"], value=e["value"],
                           bracket=tuple(e["bracket"]), reason=e["reason"])
               for e in summary["events"]]
-    return plot_sweep(pd.read_csv(folder / "sweep.csv"), events, "slope",
+    # the written table names its columns with their units (slope_rad); the plot takes the
+    # sweep's own table, whose parameter column is the parameter's name
+    table = pd.read_csv(folder / "sweep.csv").rename(columns={"slope_rad": "slope"})
+    return plot_sweep(table, events, "slope",
                       title="humanlike_6link: sweep over the slope (rad)")
 
 
@@ -165,8 +168,10 @@ FIGURES = {
                     "spectral radius; stable and valid solid, otherwise dashed; BND the "
                     "gait-pattern boundary, NS the Neimark–Sacker point, LP the fold. Drawn "
                     "by the docs build with `pdw-sweep`'s plotting code from its stored output "
-                    "`docs/results/slope_sweep/` (the sweep takes minutes, too long for the "
-                    "build; `tests/test_results_pages.py` re-runs it and compares)."),
+                    "`docs/results/slope_sweep/` (the sweep takes about 10 s warm and "
+                    "compiles the walker's functions first on a fresh machine, so the build "
+                    "does not run it; `tests/test_results_pages.py` re-runs it and "
+                    "compares)."),
     "cohort_r2": (figure_cohort_r2,
                   "R² per subject of the three cohorts below (symmetric fits on the paper's "
                   "body and on their own, per-side fits on their own; a per-side fit's knee "

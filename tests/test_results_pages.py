@@ -894,7 +894,7 @@ def test_sweeps_page_the_slope_branch(workdir, checks):
     # sweep's: the same points and events
     stored = RESULTS / "slope_sweep"
     rows, again = pd.read_csv(stored / "sweep.csv"), pd.read_csv(out / "sweep.csv")
-    plotted = ["slope", "branch", "converged", "stable", "valid", "step_length_m",
+    plotted = ["slope_rad", "branch", "converged", "stable", "valid", "step_length_m",
                "speed_m_s", "spectral_radius"]
     checks.truth("sweeps.md", f"the stored sweep.csv has the rows of the sweep ({len(rows)} "
                  f"against {len(again)})", len(rows) == len(again))
