@@ -14,12 +14,14 @@ section "Notebooks"; a link to a notebook file in a page becomes a link to its p
 Figures are drawn at build time by the current code, never stored: a line
 ``<!-- figure: walker -->`` in a page becomes that figure (a PNG of the site,
 ``figures/<name>.png``, drawn by the function of :data:`FIGURES` from the bundled problems
-and the data of the repository) with its caption; a name without a function fails the
-build.
+and the data of the repository, or written by a command run at build time: ``fit.png``
+and ``limit_cycle.png`` of the bundled file's fit) with its caption; a name without a
+function fails the build.
 """
 
 from __future__ import annotations
 
+import atexit
 import base64
 import contextlib
 import io
@@ -27,6 +29,10 @@ import json
 import os
 import posixpath
 import re
+import shutil
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 from mkdocs.exceptions import PluginError
@@ -157,8 +163,46 @@ def figure_cohort_compliance(root: Path):
     return plot_compliance(_cohort_table(root))
 
 
-#: name -> (function of the repository root returning a Figure, caption)
+#: the bundled file's fit, run once per build (:func:`bundled_fit`)
+_FIT_RUN: dict[Path, Path] = {}
+
+
+def bundled_fit(root: Path) -> Path:
+    """The output folder of ``pdw-fit --gait female_fast.csv`` run now by the current code
+    (a new process, as a user runs it: about 10 s with a warm compile cache, 30 s from an
+    empty one); once per build, in a temporary folder removed when the build ends."""
+    if root not in _FIT_RUN:
+        out = Path(tempfile.mkdtemp(prefix="pdw-docs-fit-"))
+        atexit.register(shutil.rmtree, out, True)
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+            [str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
+        done = subprocess.run([sys.executable, "-m", "pdw_casadi.cli", "fit", "--gait",
+                               "female_fast.csv", "--out", str(out), "--quiet"],
+                              cwd=root, env=env, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise PluginError(f"docs: the bundled fit failed ({done.returncode}): "
+                              f"{done.stderr.strip()[-2000:]}")
+        _FIT_RUN[root] = out
+    return _FIT_RUN[root]
+
+
+def figure_fit(root: Path) -> bytes:
+    """``fit.png`` of the bundled file's fit (:func:`bundled_fit`), as the command wrote it."""
+    return (bundled_fit(root) / "fit.png").read_bytes()
+
+
+def figure_limit_cycle(root: Path) -> bytes:
+    """``limit_cycle.png`` of the bundled file's fit (:func:`bundled_fit`)."""
+    return (bundled_fit(root) / "limit_cycle.png").read_bytes()
+
+
+#: name -> (function of the repository root returning a Figure or a PNG's bytes, caption)
 FIGURES = {
+    "fit": (figure_fit,
+            "fit.png of `pdw-fit --gait female_fast.csv`, run by the docs build with the "
+            "current code."),
+    "limit_cycle": (figure_limit_cycle,
+                    "limit_cycle.png of the same run."),
     "walker": (figure_walker,
                "The paper's 6-link walker at the section state of "
                "`problems/humanlike_6link.toml`, drawn by the docs build with "
@@ -192,6 +236,8 @@ def figure_png(name: str, root: Path) -> bytes:
     if name not in FIGURES:
         raise PluginError(f"docs: no figure {name!r} (figures: {sorted(FIGURES)})")
     fig = FIGURES[name][0](root)
+    if isinstance(fig, bytes):  # a command's own PNG
+        return fig
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     return buf.getvalue()
