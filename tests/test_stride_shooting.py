@@ -278,14 +278,7 @@ def test_a_steps_last_impact_enters_a_phase_of_the_next_step(base):
     assert g[row] == pytest.approx(force[1], rel=1e-6)
 
 
-#: the 28.9 % design predates the check that a phase begins on the near side of its guard:
-#: after the left foot's strike the trailing (right) toe pulls the ground with 0.034 N, so
-#: it is not a valid gait (docs/results/prosthesis.md)
-TOE_PULLS = pytest.mark.xfail(strict=True, reason="the trailing toe pulls at foot strike")
-
-
 @pytest.mark.parametrize("name, lighter", [
-    pytest.param("humanlike_6link_prosthesis29", 0.289, marks=TOE_PULLS),
     # a further per-leg walker to compile: in the slow set
     pytest.param("humanlike_6link_prosthesis30", 0.300, marks=pytest.mark.slow)])
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
