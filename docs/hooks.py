@@ -165,6 +165,9 @@ def figure_cohort_compliance(root: Path):
 
 #: the bundled file's fit, run once per build (:func:`bundled_fit`)
 _FIT_RUN: dict[Path, Path] = {}
+#: the longest the bundled fit may take in a build (s): 30 s from an empty compile cache on
+#: two shared cores, so ten times that is a hang, not a slow machine
+FIT_TIMEOUT_S = 300
 
 
 def bundled_fit(root: Path) -> Path:
@@ -176,9 +179,14 @@ def bundled_fit(root: Path) -> Path:
         atexit.register(shutil.rmtree, out, True)
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(
             [str(root), *filter(None, [os.environ.get("PYTHONPATH")])])}
-        done = subprocess.run([sys.executable, "-m", "pdw_casadi.cli", "fit", "--gait",
-                               "female_fast.csv", "--out", str(out), "--quiet"],
-                              cwd=root, env=env, capture_output=True, text=True)
+        try:
+            done = subprocess.run([sys.executable, "-m", "pdw_casadi.cli", "fit", "--gait",
+                                   "female_fast.csv", "--out", str(out), "--quiet"],
+                                  cwd=root, env=env, capture_output=True, text=True,
+                                  timeout=FIT_TIMEOUT_S)
+        except subprocess.TimeoutExpired as exc:
+            raise PluginError(f"docs: the bundled fit took more than {FIT_TIMEOUT_S} s") \
+                from exc
         if done.returncode != 0:
             raise PluginError(f"docs: the bundled fit failed ({done.returncode}): "
                               f"{done.stderr.strip()[-2000:]}")
@@ -235,7 +243,13 @@ def figure_png(name: str, root: Path) -> bytes:
     """The PNG of figure ``name`` of :data:`FIGURES`, drawn now."""
     if name not in FIGURES:
         raise PluginError(f"docs: no figure {name!r} (figures: {sorted(FIGURES)})")
-    fig = FIGURES[name][0](root)
+    try:
+        fig = FIGURES[name][0](root)
+    except PluginError:
+        raise
+    except Exception as exc:  # the build names the figure whose code failed
+        raise PluginError(f"docs: figure {name!r} failed: {type(exc).__name__}: {exc}") \
+            from exc
     if isinstance(fig, bytes):  # a command's own PNG
         return fig
     buf = io.BytesIO()
@@ -495,7 +509,9 @@ def notebook_links(markdown: str, file, config) -> str:
 
 
 def on_config(config):
-    """The nav's "Notebooks" section: one entry per notebook, in name order."""
+    """The nav's "Notebooks" section: one entry per notebook, in name order. A new build
+    (``mkdocs serve`` rebuilds in one process) runs the bundled fit again."""
+    _FIT_RUN.clear()
     section = next((item for item in config.nav or [] if isinstance(item, dict)
                     and NAV_SECTION in item), None)
     if section is None:

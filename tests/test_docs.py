@@ -28,7 +28,8 @@ UP_PATH = re.compile(r"(?<![\w.])((?:\.\./)+[\w.-]+)")
 #: (page of the site, figure) of every figure the docs build draws (docs/hooks.py, FIGURES)
 FIGURE_PAGES = [("model", "walker"), ("results/sweeps", "slope_sweep"),
                 ("results/cohort", "cohort_r2"),
-                ("results/cohort", "cohort_compliance")]
+                ("results/cohort", "cohort_compliance"),
+                ("commands/outputs", "fit"), ("commands/outputs", "limit_cycle")]
 
 
 def _load(path: Path, name: str):

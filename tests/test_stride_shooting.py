@@ -282,7 +282,7 @@ def test_a_steps_last_impact_enters_a_phase_of_the_next_step(base):
     # a further per-leg walker to compile: in the slow set
     pytest.param("humanlike_6link_prosthesis30", 0.300, marks=pytest.mark.slow)])
 def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
-    """The designs in data/designs (the sound leg adapting, pdw-design
+    """The design shipped in data/designs (the sound leg adapting, pdw-design
     --free-sound ... --accept-verified from the atlas gait; the 30 % one with a 0.9 %
     symmetry tolerance too): the right shank and foot are that much lighter, and the stride map,
     with Newton started 1e-5 away from the file's gait in every component (1e-3 away the

@@ -44,6 +44,10 @@ class WarmStart:
     rows: tuple[str, ...] | None = None
     free: tuple[str, ...] | None = None
     row_value: float | None = None
+    #: the free parameters' scales (``ShootingNLP.p_scale``: the unknowns are p / scale)
+    #: and the phases of the segments, in order
+    scale: tuple[float, ...] | None = None
+    phases: tuple[str, ...] | None = None
 
 
 _SEGMENT_ROW = re.compile(r"^(\w+)\[(\d+)\](.*)$")
@@ -192,6 +196,8 @@ class FitSolver:
             self.bound = bound
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
+        #: shooting rows that the last :meth:`stride_point` gave a multiplier
+        self.mapped = 0
 
     @property
     def n_shooting(self) -> int:
@@ -222,12 +228,16 @@ class FitSolver:
     def warm_start_of(self, out: dict) -> WarmStart:
         """What :meth:`warm_point` needs of a solve ``out`` of this solver, to store."""
         lam_g = out["lam_g"]
+        # the stability row at the answer, as the last progress line read it
+        last = out["history"][-1] if out.get("history") else None
+        row_value = None if self.row is None or last is None or \
+            not np.isfinite(last.spectral_bound) else float(last.spectral_bound)
         return WarmStart(out["w"].copy(), out["lam_x"][: self.n_w].copy(),
                          lam_g[: self.n_shooting].copy(),
                          None if self.row is None else float(lam_g[-1]),
                          rows=tuple(self.nlp.g_names), free=tuple(self.nlp.free),
-                         row_value=None if self.row is None else
-                         float(self.row.value(out["w"])))
+                         row_value=row_value, scale=tuple(float(v) for v in self.nlp.p_scale),
+                         phases=tuple(s.phase for s in self.nlp.specs))
 
     def stride_point(self, warm: WarmStart) -> FeasibleIterate | None:
         """This stride NLP's start (its own ``w0``, built by simulating the start gait)
@@ -238,15 +248,18 @@ class FitSolver:
         the one step's row value when the stride's row is at its bound at the start
         (along a symmetric change the stride's row moves 2 rho times the step's; the
         stride's objective, two gait cycles, moves twice the step's), else 0. None: not a
-        stride, or ``warm`` kept no names, or the segments do not pair up."""
+        stride, or ``warm`` kept no names, or each step's segments are not the one step's
+        phases in order. :attr:`mapped` holds how many shooting rows got a multiplier (a
+        segment with another number of shooting intervals keeps 0 on its blocks)."""
         nlp = self.nlp
-        if nlp.n_steps != 2 or warm.rows is None or warm.free is None:
+        if nlp.n_steps != 2 or warm.rows is None or warm.free is None or \
+                warm.scale is None or warm.phases is None:
             return None
-        n_seg = 1 + max((int(m.group(2)) for m in map(_SEGMENT_ROW.match, warm.rows)
-                         if m and m.group(1) == "continuity"), default=0)
-        if len(nlp.specs) != 2 * n_seg:
+        phases = tuple(s.phase for s in nlp.specs)
+        if phases != warm.phases * 2:
             return None
-        lam_s, _ = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names)
+        n_seg = len(warm.phases)
+        lam_s, self.mapped = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names)
         w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
         e = self.err(w).full().ravel()
         lam_e, o = [], 0
@@ -259,7 +272,12 @@ class FitSolver:
         for j, name in enumerate(nlp.free):
             base = name.rsplit(".", 1)[-1]
             if base in warm.free:
-                lam_w[ns + j] = warm.lam_w[ns_src + warm.free.index(base)]
+                i = warm.free.index(base)
+                # the unknowns are p / scale: a bound's multiplier scales with the scale;
+                # the slope acts on both steps, a leg's compliance on its own leg (half the
+                # symmetric value's reach, in a stride objective of twice the step's)
+                lam_w[ns + j] = warm.lam_w[ns_src + i] * nlp.p_scale[j] / warm.scale[i] * \
+                    (2.0 if name == "slope" else 1.0)
         o_t, o_t_src = ns + len(nlp.free), ns_src + len(warm.free)
         for k in range(len(nlp.specs)):
             lam_w[o_t + k] = warm.lam_w[o_t_src + k % n_seg]
@@ -268,8 +286,9 @@ class FitSolver:
         if self.row is not None:
             lam_row = [0.0]
             v = self.row.value(w)
-            if warm.lam_row is not None and warm.row_value and np.isfinite(v) and \
-                    v >= self.bound - self.opts.tol:
+            if warm.lam_row is not None and warm.row_value is not None and \
+                    np.isfinite(warm.row_value) and warm.row_value > 0 and \
+                    np.isfinite(v) and v >= self.bound - self.opts.tol:
                 lam_row = [warm.lam_row / warm.row_value]
         lam_g = np.r_[lam_s, *lam_e, np.zeros(n_floor), lam_row]
         return FeasibleIterate(-1, math.nan, np.r_[w, e], math.nan,

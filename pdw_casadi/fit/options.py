@@ -9,7 +9,7 @@ from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.nlp.driver import IPOPT_TOL
 
 #: the settings of the per-leg fit only (a one-step fit ignores them)
-PER_LEG_FIELDS = ("side", "start")
+PER_LEG_FIELDS = ("side", "start", "stride_warm_start")
 
 
 @dataclass

@@ -115,8 +115,9 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
             point = solver.warm_point(warm) if warm is not None and rnd == 0 else None
             if point is not None:
                 log(f"{fit.where(rnd)}: warm start from the "
-                    + ("stored solution at the start" if fit.steps == 1 else
-                       "symmetric fit's solution") + ", with its multipliers")
+                    + ("stored solution at the start, with its multipliers" if fit.steps == 1
+                       else f"symmetric fit's solution, with its multipliers on "
+                            f"{solver.mapped} of {solver.n_shooting} shooting rows"))
             out = solver.solve(nlp.w0, warm=point)
         else:
             nlp, solver, k = restart_from
