@@ -114,8 +114,7 @@ def test_a_stride_takes_each_step_rows_multipliers_from_the_one_step_nlp(fitted)
     """The stride NLP's shooting rows, built at the symmetric gait, pair up block by block
     with the one-step NLP's (each step's segment rows with the step's, the leg swap into
     step 2 and the stride's periodicity with the step's periodicity, step 2's section rows
-    with the section rows): every row gets a multiplier, each step the one step's values,
-    and a row block of another size gets none."""
+    with the section rows): every row gets a multiplier, each step the one step's values."""
     from pdw_casadi.fit.driver import stride_multipliers
 
     _, _, _, one, stride = fitted
@@ -131,11 +130,33 @@ def test_a_stride_takes_each_step_rows_multipliers_from_the_one_step_nlp(fitted)
     per = lam[np.array(one.g_names) == "periodicity"]
     assert np.array_equal(out[names == "step_link[1]"], per)
     assert np.array_equal(out[names == "section[1]"], lam[np.array(one.g_names) == "section"])
-    cut = [n for n in one.g_names if not n.startswith("continuity[0]")] + ["continuity[0]"]
-    out2, mapped2 = stride_multipliers(cut, np.ones(len(cut)), stride.g_names)
-    assert not out2[names == "continuity[0]"].any()
-    assert not out2[names == f"continuity[{K}]"].any()
-    assert mapped2 == mapped - 2 * int((names == "continuity[0]").sum())
+
+
+
+def test_multipliers_of_another_grid_are_resampled_along_the_segment():
+    """A one-step NLP built at another gait has other numbers of shooting intervals per
+    segment: its continuity multipliers (costates, nx per node) are interpolated in the
+    segment's fraction, its sample rows' multipliers (inequalities) shared out so that their
+    sum over the segment is kept; blocks of the same size are copied."""
+    from pdw_casadi.fit.driver import resample_block, stride_multipliers
+
+    nodes = np.array([1.0, 10.0, 2.0, 20.0])  # two nodes of two states
+    assert np.allclose(resample_block(nodes, 8, 2, density=False),
+                       [1, 10, 1, 10, 1.5, 15, 2, 20])
+    shares = np.array([0.0, 0.0, 4.0, 0.0])
+    finer = resample_block(shares, 8, 1, density=True)
+    assert finer.sum() == pytest.approx(shares.sum()) and finer.max() == pytest.approx(2.0)
+    assert np.array_equal(resample_block(shares, 4, 1, density=True), shares)
+    one = ["section"] * 2 + ["continuity[0]"] * 4 + ["sign[0]:e"] * 4 + ["guard[0]:e"] + \
+        ["periodicity"] * 2
+    lam = np.r_[5.0, 6.0, nodes, shares, 7.0, 8.0, 9.0]
+    stride = ["section"] * 2 + ["continuity[0]"] * 8 + ["sign[0]:e"] * 8 + ["guard[0]:e"] + \
+        ["step_link[1]"] * 2 + ["section[1]"] * 2 + ["continuity[1]"] * 8 + \
+        ["sign[1]:e"] * 8 + ["guard[1]:e"] + ["periodicity"] * 2
+    out, mapped = stride_multipliers(one, lam, stride, nx=2)
+    assert mapped == len(stride)
+    step = np.r_[resample_block(nodes, 8, 2, False), finer, 7.0]
+    assert np.allclose(out, np.r_[5, 6, step, 8, 9, 5, 6, step, 8, 9])
 
 
 def _candidate(radius: float, steps: int, max_radius: float = 0.91, valid: bool = True,

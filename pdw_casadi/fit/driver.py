@@ -82,15 +82,39 @@ def _blocks(names) -> list[tuple[str, int, int]]:
     return out
 
 
-def stride_multipliers(one_step_rows, lam, stride_rows) -> tuple[np.ndarray, int]:
+def resample_block(lam: np.ndarray, n_out: int, width: int, density: bool) -> np.ndarray:
+    """A block of multipliers of rows along a segment (``lam``: points of ``width`` rows
+    each, in time order, e.g. a continuity block's nodes of nx rows) on ``n_out`` rows of
+    another grid of the same segment: each component interpolated linearly in the
+    fraction of the segment (point k of n at (k + 1) / n). ``density``: inequality rows
+    at samples, whose multipliers sum over the segment (a finer grid shares them out: the
+    values scale by the ratio of point counts); else rows whose multipliers are values of
+    a function of time (the continuity rows' costates), kept as they are."""
+    lam = np.asarray(lam, float)
+    n_in = lam.size // width
+    n_pts = n_out // width
+    if n_in * width != lam.size or n_pts * width != n_out or n_in == 0 or n_pts == 0:
+        return np.zeros(n_out)
+    src = lam.reshape(n_in, width)
+    t_in = np.arange(1, n_in + 1) / n_in
+    t_out = np.arange(1, n_pts + 1) / n_pts
+    out = np.column_stack([np.interp(t_out, t_in, src[:, c]) for c in range(width)])
+    if density:
+        out *= n_in / n_pts
+    return out.ravel()
+
+
+def stride_multipliers(one_step_rows, lam, stride_rows, nx: int = 1) -> tuple[np.ndarray, int]:
     """The multipliers of a stride NLP's shooting rows (names ``stride_rows``) from those
-    ``lam`` of a one-step NLP of the same gait (names ``one_step_rows``): every block of
+    ``lam`` of a one-step NLP of a symmetric gait (names ``one_step_rows``): every block of
     rows of a step takes the multipliers of the same block of the one step (by
     :func:`_row_key`; a block that appears in both steps takes them twice). At a symmetric
     gait each step carries one leg's gait cycle, as the one step carries the cycle once,
-    so the step's rows keep the one step's multipliers. A block whose row count differs
-    (the NLPs were built from different gaits) is left at 0. Returns (multipliers, rows
-    mapped)."""
+    so the step's rows keep the one step's multipliers. A block of another row count (the
+    one-step NLP was built from the gait its fit started at, with other numbers of shooting
+    intervals per segment) is resampled along its segment (:func:`resample_block`: the
+    continuity rows' ``nx`` states per node as values, the sign and margin rows at the
+    samples as shares). Returns (multipliers, rows that got one)."""
     src = _blocks(one_step_rows)
     n_seg = 1 + max((int(m.group(2)) for m in map(_SEGMENT_ROW.match, one_step_rows)
                      if m and m.group(1) == "continuity"), default=0)
@@ -111,6 +135,11 @@ def stride_multipliers(one_step_rows, lam, stride_rows) -> tuple[np.ndarray, int
         j, m = cands[occ % len(cands)]
         if m == n:
             out[i: i + n] = lam[j: j + n]
+            mapped += n
+        elif key.startswith(("continuity[", "sign[", "margin[")):
+            cont = key.startswith("continuity[")
+            out[i: i + n] = resample_block(lam[j: j + m], n, nx if cont else 1,
+                                           density=not cont)
             mapped += n
     return out, mapped
 
@@ -249,8 +278,7 @@ class FitSolver:
         (along a symmetric change the stride's row moves 2 rho times the step's; the
         stride's objective, two gait cycles, moves twice the step's), else 0. None: not a
         stride, or ``warm`` kept no names, or each step's segments are not the one step's
-        phases in order. :attr:`mapped` holds how many shooting rows got a multiplier (a
-        segment with another number of shooting intervals keeps 0 on its blocks)."""
+        phases in order. :attr:`mapped` holds how many shooting rows got a multiplier."""
         nlp = self.nlp
         if nlp.n_steps != 2 or warm.rows is None or warm.free is None or \
                 warm.scale is None or warm.phases is None:
@@ -259,7 +287,8 @@ class FitSolver:
         if phases != warm.phases * 2:
             return None
         n_seg = len(warm.phases)
-        lam_s, self.mapped = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names)
+        lam_s, self.mapped = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names,
+                                                nlp.hs.nx)
         w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
         e = self.err(w).full().ravel()
         lam_e, o = [], 0
