@@ -25,6 +25,7 @@ from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.font_manager import FontProperties
 from matplotlib.lines import Line2D
+from matplotlib.patches import Arc
 from matplotlib.textpath import text_to_path
 
 from pdw_casadi.model.faces import WalkerFaces, faces_from_trajectory
@@ -327,8 +328,6 @@ def plot_walker(hs, section_state, p, path=None, title: str | None = None, *,
     (``"hip"``, ``"toe1"``, ...). ``ax``: one Axes. Returns the figure (also written to
     ``path`` if given).
     """
-    from matplotlib.patches import Arc
-
     p = np.asarray(p, dtype=float).ravel()
     gamma = float(p[hs.model.parameter_names.index("slope")])
     x = np.asarray(hs.section_to_full(section_state, p), dtype=float).ravel()
