@@ -115,11 +115,11 @@ def test_a_stride_takes_each_step_rows_multipliers_from_the_one_step_nlp(fitted)
     with the one-step NLP's (each step's segment rows with the step's, the leg swap into
     step 2 and the stride's periodicity with the step's periodicity, step 2's section rows
     with the section rows): every row gets a multiplier, each step the one step's values."""
-    from pdw_casadi.fit.driver import stride_multipliers
+    from pdw_casadi.nlp.multipliers import map_multipliers
 
     _, _, _, one, stride = fitted
     lam = np.arange(1.0, len(one.g_names) + 1)
-    out, mapped = stride_multipliers(one.g_names, lam, stride.g_names)
+    out, mapped = map_multipliers(one.g_names, lam, stride.g_names)
     assert mapped == len(stride.g_names) == out.size == 2 * lam.size
     names = np.array(stride.g_names)
     K = len(one.specs)
@@ -138,7 +138,7 @@ def test_multipliers_of_another_grid_are_resampled_along_the_segment():
     segment: its continuity multipliers (costates, nx per node) are interpolated in the
     segment's fraction, its sample rows' multipliers (inequalities) shared out so that their
     sum over the segment is kept; blocks of the same size are copied."""
-    from pdw_casadi.fit.driver import resample_block, stride_multipliers
+    from pdw_casadi.nlp.multipliers import map_multipliers, resample_block
 
     nodes = np.array([1.0, 10.0, 2.0, 20.0])  # two nodes of two states
     assert np.allclose(resample_block(nodes, 8, 2, density=False),
@@ -153,7 +153,7 @@ def test_multipliers_of_another_grid_are_resampled_along_the_segment():
     stride = ["section"] * 2 + ["continuity[0]"] * 8 + ["sign[0]:e"] * 8 + ["guard[0]:e"] + \
         ["step_link[1]"] * 2 + ["section[1]"] * 2 + ["continuity[1]"] * 8 + \
         ["sign[1]:e"] * 8 + ["guard[1]:e"] + ["periodicity"] * 2
-    out, mapped = stride_multipliers(one, lam, stride, nx=2)
+    out, mapped = map_multipliers(one, lam, stride, nx=2)
     assert mapped == len(stride)
     step = np.r_[resample_block(nodes, 8, 2, False), finer, 7.0]
     assert np.allclose(out, np.r_[5, 6, step, 8, 9, 5, 6, step, 8, 9])

@@ -4,7 +4,6 @@ errors as extra unknowns, the optional timing term and the stability row."""
 from __future__ import annotations
 
 import math
-import re
 import time
 from dataclasses import dataclass
 
@@ -23,6 +22,7 @@ from pdw_casadi.nlp.driver import (
     nlp_functions,
     succeeded,
 )
+from pdw_casadi.nlp.multipliers import map_multipliers
 from pdw_casadi.nlp.stability import StabilityRow
 
 
@@ -40,7 +40,8 @@ class WarmStart:
     lam_row: float | None
     #: the names of the shooting rows (``ShootingNLP.g_names``) and of the free parameters
     #: (``ShootingNLP.free``) of the NLP it solved, and its stability row's value there:
-    #: what maps it onto a stride's NLP (:func:`stride_multipliers`; None: not kept)
+    #: what maps it onto a stride's NLP
+    #: (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`; None: not kept)
     rows: tuple[str, ...] | None = None
     free: tuple[str, ...] | None = None
     row_value: float | None = None
@@ -48,100 +49,6 @@ class WarmStart:
     #: and the phases of the segments, in order
     scale: tuple[float, ...] | None = None
     phases: tuple[str, ...] | None = None
-
-
-_SEGMENT_ROW = re.compile(r"^(\w+)\[(\d+)\](.*)$")
-
-
-def _row_key(name: str, n_segments: int) -> str:
-    """A shooting row's name with its segment index taken modulo the step's segments and a
-    later step's section rows named as the first step's: the name of the same row in a
-    one-step NLP (``step_link[i]``, the leg swap into step i, is the one-step NLP's
-    ``periodicity``)."""
-    m = _SEGMENT_ROW.match(name)
-    if m is None:
-        return name
-    word, k, rest = m.group(1), int(m.group(2)), m.group(3)
-    if word == "section":
-        return "section"
-    if word == "step_link":
-        return "periodicity"
-    return f"{word}[{k % n_segments}]{rest}"
-
-
-def _blocks(names) -> list[tuple[str, int, int]]:
-    """Runs of equal names: (name, first row, rows)."""
-    out, i = [], 0
-    names = list(names)
-    while i < len(names):
-        j = i
-        while j < len(names) and names[j] == names[i]:
-            j += 1
-        out.append((names[i], i, j - i))
-        i = j
-    return out
-
-
-def resample_block(lam: np.ndarray, n_out: int, width: int, density: bool) -> np.ndarray:
-    """A block of multipliers of rows along a segment (``lam``: points of ``width`` rows
-    each, in time order, e.g. a continuity block's nodes of nx rows) on ``n_out`` rows of
-    another grid of the same segment: each component interpolated linearly in the
-    fraction of the segment (point k of n at (k + 1) / n). ``density``: inequality rows
-    at samples, whose multipliers sum over the segment (a finer grid shares them out: the
-    values scale by the ratio of point counts); else rows whose multipliers are values of
-    a function of time (the continuity rows' costates), kept as they are."""
-    lam = np.asarray(lam, float)
-    n_in = lam.size // width
-    n_pts = n_out // width
-    if n_in * width != lam.size or n_pts * width != n_out or n_in == 0 or n_pts == 0:
-        return np.zeros(n_out)
-    src = lam.reshape(n_in, width)
-    t_in = np.arange(1, n_in + 1) / n_in
-    t_out = np.arange(1, n_pts + 1) / n_pts
-    out = np.column_stack([np.interp(t_out, t_in, src[:, c]) for c in range(width)])
-    if density:
-        out *= n_in / n_pts
-    return out.ravel()
-
-
-def stride_multipliers(one_step_rows, lam, stride_rows, nx: int = 1) -> tuple[np.ndarray, int]:
-    """The multipliers of a stride NLP's shooting rows (names ``stride_rows``) from those
-    ``lam`` of a one-step NLP of a symmetric gait (names ``one_step_rows``): every block of
-    rows of a step takes the multipliers of the same block of the one step (by
-    :func:`_row_key`; a block that appears in both steps takes them twice). At a symmetric
-    gait each step carries one leg's gait cycle, as the one step carries the cycle once,
-    so the step's rows keep the one step's multipliers. A block of another row count (the
-    one-step NLP was built from the gait its fit started at, with other numbers of shooting
-    intervals per segment) is resampled along its segment (:func:`resample_block`: the
-    continuity rows' ``nx`` states per node as values, the sign and margin rows at the
-    samples as shares). Returns (multipliers, rows that got one)."""
-    src = _blocks(one_step_rows)
-    n_seg = 1 + max((int(m.group(2)) for m in map(_SEGMENT_ROW.match, one_step_rows)
-                     if m and m.group(1) == "continuity"), default=0)
-    lam = np.asarray(lam, float)
-    by_key: dict[str, list[tuple[int, int]]] = {}
-    for name, i, n in src:
-        by_key.setdefault(_row_key(name, n_seg), []).append((i, n))
-    out = np.zeros(len(stride_rows))
-    seen: dict[str, int] = {}
-    mapped = 0
-    for name, i, n in _blocks(stride_rows):
-        key = _row_key(name, n_seg)
-        occ = seen.get(key, 0)
-        seen[key] = occ + 1
-        cands = by_key.get(key)
-        if not cands:
-            continue
-        j, m = cands[occ % len(cands)]
-        if m == n:
-            out[i: i + n] = lam[j: j + n]
-            mapped += n
-        elif key.startswith(("continuity[", "sign[", "margin[")):
-            cont = key.startswith("continuity[")
-            out[i: i + n] = resample_block(lam[j: j + m], n, nx if cont else 1,
-                                           density=not cont)
-            mapped += n
-    return out, mapped
 
 
 def stance_pct_expr(nlp) -> ca.MX:
@@ -271,7 +178,8 @@ class FitSolver:
     def stride_point(self, warm: WarmStart) -> FeasibleIterate | None:
         """This stride NLP's start (its own ``w0``, built by simulating the start gait)
         with multipliers mapped from a one-step solution ``warm`` of the same symmetric
-        gait (:func:`stride_multipliers`): the shooting rows by name, each leg's
+        gait (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`): the shooting rows by
+        name, each leg's
         compliance bound and each step's durations as the one step's, the curve rows
         exactly (as :meth:`warm_point`), the stability row's as the one step's divided by
         the one step's row value when the stride's row is at its bound at the start
@@ -287,8 +195,8 @@ class FitSolver:
         if phases != warm.phases * 2:
             return None
         n_seg = len(warm.phases)
-        lam_s, self.mapped = stride_multipliers(warm.rows, warm.lam_shooting, nlp.g_names,
-                                                nlp.hs.nx)
+        lam_s, self.mapped = map_multipliers(warm.rows, warm.lam_shooting, nlp.g_names,
+                                             nlp.hs.nx)
         w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
         e = self.err(w).full().ravel()
         lam_e, o = [], 0

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pdw_casadi.gait.stability import MAX_RADIUS, RADIUS_MARGIN, map_radius
 from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.nlp.driver import IPOPT_TOL
+from pdw_casadi.nlp.multipliers import WARM_IPOPT
 
 #: the settings of the per-leg fit only (a one-step fit ignores them)
 PER_LEG_FIELDS = ("side", "start", "stride_warm_start")
@@ -173,11 +174,7 @@ class FitOptions:
     #: IPOPT's options of a warm restart from a kept iterate with its multipliers: the
     #: iterate is taken as it is (tiny bound pushes) and the barrier starts small, so that
     #: the restart does not leave the point it starts from
-    warm_ipopt: dict = field(default_factory=lambda: {
-        "warm_start_init_point": "yes", "warm_start_bound_push": 1e-9,
-        "warm_start_bound_frac": 1e-9, "warm_start_slack_bound_push": 1e-9,
-        "warm_start_slack_bound_frac": 1e-9, "warm_start_mult_bound_push": 1e-9,
-        "mu_init": 1e-6})
+    warm_ipopt: dict = field(default_factory=lambda: dict(WARM_IPOPT))
     resim_steps: int = 20  # steps of the re-simulation check
     resim_tol: float = 1e-6  # largest accepted re-simulation deviation (rad, rad/s)
     verbose: bool = True  # one progress line per IPOPT iteration

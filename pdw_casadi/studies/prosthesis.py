@@ -66,6 +66,7 @@ from pdw_casadi.gait.stride import (
 )
 from pdw_casadi.model.problem import Problem, ProblemError, load_problem
 from pdw_casadi.nlp.driver import IPOPT_TOL, Progress, ipopt_settings, nlp_functions, succeeded
+from pdw_casadi.nlp.multipliers import WARM_IPOPT, map_multipliers
 from pdw_casadi.nlp.shooting import ShootingNLP
 from pdw_casadi.nlp.stability import StabilityRow
 
@@ -261,6 +262,12 @@ class DesignNLPOptions:
     #: IPOPT inf_pr / inf_du trend
     diagnose: bool = False
     ipopt: dict = field(default_factory=dict)
+    #: start each homotopy step's NLP from the last accepted step's multipliers, mapped
+    #: by row name (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`), with IPOPT's
+    #: warm options (:data:`~pdw_casadi.nlp.multipliers.WARM_IPOPT`); False (the default:
+    #: warm, the 30 % design's homotopy was rejected at 18.9 and 14.1 %, which it passes
+    #: cold; docs/results/prosthesis.md): every step cold
+    warm_start: bool = False
 
     @property
     def max_step_radius(self) -> float:
@@ -354,10 +361,36 @@ class ProsthesisDesignSolver:
         self.lbg = np.r_[nlp.lbg, -tol, -tol, -np.inf]
         self.ubg = np.r_[nlp.ubg, tol, tol, opts.max_stride_radius - opts.radius_margin]
 
-    def solve(self, w0) -> dict:
-        """Solve from ``w0``: the answer ``w``, IPOPT status, iterations, wall time (s)."""
+    def warm_from(self, last) -> tuple[np.ndarray, np.ndarray] | None:
+        """This NLP's multipliers (lam_x, lam_g) from the last homotopy step's solve
+        ``last`` = (its solver, its answer :meth:`solve`): the shooting rows by name (blocks
+        of another size resampled along their segment), the asymmetry and stability rows
+        as they were, the free parameters' bounds by name (rescaled to this NLP's scales),
+        the durations' by segment. None when the segments' phases differ."""
+        solver, out = last
+        nlp, old = self.nlp, solver.nlp
+        if [s.phase for s in nlp.specs] != [s.phase for s in old.specs]:
+            return None
+        n_old = len(old.g_names)
+        lam_s, _ = map_multipliers(old.g_names, out["lam_g"][:n_old], nlp.g_names,
+                                   nlp.hs.nx)
+        lam_g = np.r_[lam_s, out["lam_g"][n_old:]]
+        lam_x = np.zeros(self.n_w)
+        ns = nlp.xs.shape[0]
+        for j, name in enumerate(nlp.free):
+            if name in old.free:
+                i = old.free.index(name)
+                lam_x[ns + j] = out["lam_x"][ns + i] * nlp.p_scale[j] / old.p_scale[i]
+        o, o_old = ns + len(nlp.free), ns + len(old.free)
+        lam_x[o: o + len(nlp.specs)] = out["lam_x"][o_old: o_old + len(old.specs)]
+        return lam_x, lam_g
+
+    def solve(self, w0, warm: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+        """Solve from ``w0`` (with ``warm`` = (lam_x, lam_g): from those multipliers with
+        IPOPT's warm options): the answer ``w``, IPOPT status, iterations, wall time (s)."""
         opts = self.opts
-        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol, opts.ipopt)
+        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol,
+                               {**(WARM_IPOPT if warm is not None else {}), **opts.ipopt})
         progress = Progress(self.n_w, self.lbg.size, self.lbg, self.ubg, self.lbx, self.ubx,
                              lambda x: {}, True, self.log if opts.verbose else None)
         solver = ca.nlpsol("pdw_design", "ipopt", self.nlp_fun,
@@ -365,7 +398,8 @@ class ProsthesisDesignSolver:
                             "jac_g": self.jac_g, "show_eval_warnings": False})
         w0 = np.clip(w0, self.lbx, self.ubx)
         t0 = time.perf_counter()
-        sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        args = {} if warm is None else {"lam_x0": warm[0], "lam_g0": warm[1]}
+        sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, **args)
         interrupt.check()  # Ctrl-C inside IPOPT ends the design, not this one solve
         st = solver.stats()
         w = sol["x"].full().ravel()
@@ -500,6 +534,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     fp = report = target = None
     ok = False
     step = min(opts.first_step, lighter)
+    last = None  # the last accepted step's (solver, solve)
     while len(solves) < opts.max_solves:
         done = path[-1][0]
         level = min(done + step, lighter)
@@ -513,7 +548,8 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         pinned = {k: float(theta_t[names.index(k)]) for k in body}
         solver = ProsthesisDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
                                     log=log, bounds=dist_bounds)
-        out = solver.solve(nlp.w0)
+        warm = solver.warm_from(last) if last is not None and opts.warm_start else None
+        out = solver.solve(nlp.w0, warm)
         if opts.diagnose:
             _log_diagnosis(solver, out, log)
         u = nlp.unpack(out["w"])
@@ -542,6 +578,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                 break
             continue
         x, theta = fp.state, fp.parameters
+        last = (solver, out)  # the next step starts from its multipliers
         path.append((level, x.copy(), theta.copy()))
         if level >= lighter:
             ok = True
