@@ -459,8 +459,8 @@ def test_prosthesis_page_the_28_9_percent_design(fixed_point, checks):
     checks.passage(
         "prosthesis.md",
         r"docs/results/designs/humanlike_6link_prosthesis29\.toml` gives residual NUM, stride "
-        r"radius "
-        r"NUM \(per step NUM\), invalid, step length NUM / NUM m and step time NUM / NUM s "
+        r"radius NUM \(per step NUM\), invalid, step length NUM / NUM m and step time NUM / "
+        r"NUM s "
         r"\(both asymmetries below NUM %\), slope NUM rad unchanged\. "
         + _compliance_pattern("Prosthetic leg:") + "; " + _compliance_pattern("sound leg:"),
         fp["residual"], fp["spectral_radius"], stride["step_spectral_radius_equivalent"],

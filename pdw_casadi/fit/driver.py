@@ -151,12 +151,9 @@ class FitSolver:
             return self.stride_point(warm)
         w = np.clip(warm.w, self.lo, self.hi)
         e = self.err(w).full().ravel()
-        lam_e, o = [], 0
-        for target, E in self.E.items():
-            lam_e.append(-2.0 * e[o: o + E.shape[1]] / self.ss[target])
-            o += E.shape[1]
+        lam_e = self.curve_multipliers(e)
         n_floor = self.lbg.size - self.n_shooting - e.size - (self.row is not None)
-        lam_g = np.r_[warm.lam_shooting, *lam_e, np.zeros(n_floor),
+        lam_g = np.r_[warm.lam_shooting, lam_e, np.zeros(n_floor),
                       [] if self.row is None else [warm.lam_row]]
         return FeasibleIterate(-1, math.nan, np.r_[w, e], math.nan,
                                np.r_[warm.lam_w, np.zeros(e.size)], lam_g)
@@ -175,13 +172,22 @@ class FitSolver:
                          row_value=row_value, scale=tuple(float(v) for v in self.nlp.p_scale),
                          phases=tuple(s.phase for s in self.nlp.specs))
 
+    def curve_multipliers(self, e: np.ndarray) -> np.ndarray:
+        """The curve rows' multipliers at the errors ``e`` (E = err(w)): the objective's
+        stationarity in E gives lam_E = -2 E / SS_tot exactly."""
+        lam, o = [], 0
+        for target, E in self.E.items():
+            lam.append(-2.0 * e[o: o + E.shape[1]] / self.ss[target])
+            o += E.shape[1]
+        return np.concatenate(lam)
+
     def stride_point(self, warm: WarmStart) -> FeasibleIterate | None:
         """This stride NLP's start (its own ``w0``, built by simulating the start gait)
         with multipliers mapped from a one-step solution ``warm`` of the same symmetric
         gait (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`): the shooting rows by
-        name, each leg's
-        compliance bound and each step's durations as the one step's, the curve rows
-        exactly (as :meth:`warm_point`), the stability row's as the one step's divided by
+        name, each leg's compliance bound and each step's durations as the one step's, the
+        curve rows exactly (:meth:`curve_multipliers`), the stability row's as the one
+        step's divided by
         the one step's row value when the stride's row is at its bound at the start
         (along a symmetric change the stride's row moves 2 rho times the step's; the
         stride's objective, two gait cycles, moves twice the step's), else 0. None: not a
@@ -199,10 +205,7 @@ class FitSolver:
                                              nlp.hs.nx)
         w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
         e = self.err(w).full().ravel()
-        lam_e, o = [], 0
-        for target, E in self.E.items():
-            lam_e.append(-2.0 * e[o: o + E.shape[1]] / self.ss[target])
-            o += E.shape[1]
+        lam_e = self.curve_multipliers(e)
         # unknowns: xs, pf, T, the nodes, xs of step 2; only pf and T have bounds
         ns = ns_src = nlp.xs.shape[0]  # both start with the same section state
         lam_w = np.zeros(self.n_w)
@@ -227,7 +230,7 @@ class FitSolver:
                     np.isfinite(warm.row_value) and warm.row_value > 0 and \
                     np.isfinite(v) and v >= self.bound - self.opts.tol:
                 lam_row = [warm.lam_row / warm.row_value]
-        lam_g = np.r_[lam_s, *lam_e, np.zeros(n_floor), lam_row]
+        lam_g = np.r_[lam_s, lam_e, np.zeros(n_floor), lam_row]
         return FeasibleIterate(-1, math.nan, np.r_[w, e], math.nan,
                                np.r_[lam_w, np.zeros(e.size)], lam_g)
 
