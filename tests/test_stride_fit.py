@@ -159,6 +159,28 @@ def test_multipliers_of_another_grid_are_resampled_along_the_segment():
     assert np.allclose(out, np.r_[5, 6, step, 8, 9, 5, 6, step, 8, 9])
 
 
+def test_bound_multipliers_follow_the_parameters_scales_and_segments():
+    """A free parameter's bound multiplier is the source's rescaled to this NLP's scale
+    (unknowns are p / scale: the multiplier of p's bound is lam / scale), times its weight;
+    segment k's duration takes segment k modulo the source's segments; the section state
+    and the nodes (unbounded) get 0."""
+    from types import SimpleNamespace
+
+    import casadi as ca
+
+    from pdw_casadi.nlp.multipliers import bound_multipliers
+
+    # source: 2 section states, free (k, slope) scaled (10, 0.1), 2 segments, 1 node
+    lam_src = np.array([9.0, 9.0, 3.0, -2.0, 0.5, 0.7, 9.0])
+    nlp = SimpleNamespace(w=ca.MX.sym("w", 2 + 3 + 4 + 1), xs=ca.MX.sym("xs", 2),
+                          free=["left.k", "right.k", "slope"],
+                          p_scale=np.array([20.0, 5.0, 0.1]), specs=[None] * 4)
+    out = bound_multipliers(lam_src, ("k", "slope"), (10.0, 0.1), 2, nlp,
+                            source=lambda n: n.rsplit(".", 1)[-1],
+                            weight=lambda n: 2.0 if n == "slope" else 1.0)
+    assert np.allclose(out, [0, 0, 6.0, 1.5, -4.0, 0.5, 0.7, 0.5, 0.7, 0])
+
+
 def _candidate(radius: float, steps: int, max_radius: float = 0.91, valid: bool = True,
                deviation: float = 0.0):
     """A checked gait of the ``steps``-step map whose spectral radius is ``radius`` (no

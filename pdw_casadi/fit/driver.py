@@ -22,7 +22,7 @@ from pdw_casadi.nlp.driver import (
     nlp_functions,
     succeeded,
 )
-from pdw_casadi.nlp.multipliers import map_multipliers
+from pdw_casadi.nlp.multipliers import bound_multipliers, map_multipliers
 from pdw_casadi.nlp.stability import StabilityRow
 
 
@@ -206,21 +206,11 @@ class FitSolver:
         w = np.clip(np.asarray(nlp.w0, float).ravel(), self.lo, self.hi)
         e = self.err(w).full().ravel()
         lam_e = self.curve_multipliers(e)
-        # unknowns: xs, pf, T, the nodes, xs of step 2; only pf and T have bounds
-        ns = ns_src = nlp.xs.shape[0]  # both start with the same section state
-        lam_w = np.zeros(self.n_w)
-        for j, name in enumerate(nlp.free):
-            base = name.rsplit(".", 1)[-1]
-            if base in warm.free:
-                i = warm.free.index(base)
-                # the unknowns are p / scale: a bound's multiplier scales with the scale;
-                # the slope acts on both steps, a leg's compliance on its own leg (half the
-                # symmetric value's reach, in a stride objective of twice the step's)
-                lam_w[ns + j] = warm.lam_w[ns_src + i] * nlp.p_scale[j] / warm.scale[i] * \
-                    (2.0 if name == "slope" else 1.0)
-        o_t, o_t_src = ns + len(nlp.free), ns_src + len(warm.free)
-        for k in range(len(nlp.specs)):
-            lam_w[o_t + k] = warm.lam_w[o_t_src + k % n_seg]
+        # a leg's compliance acts on its own leg (half the symmetric value's reach, in a
+        # stride objective of twice the step's); the slope on both steps
+        lam_w = bound_multipliers(warm.lam_w, warm.free, warm.scale, n_seg, nlp,
+                                  source=lambda name: name.rsplit(".", 1)[-1],
+                                  weight=lambda name: 2.0 if name == "slope" else 1.0)
         n_floor = self.lbg.size - self.n_shooting - e.size - (self.row is not None)
         lam_row = []
         if self.row is not None:

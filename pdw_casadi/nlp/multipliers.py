@@ -113,5 +113,29 @@ def map_multipliers(one_step_rows, lam, stride_rows, nx: int = 1) -> tuple[np.nd
     return out, mapped
 
 
-__all__ = ["SEGMENT_ROW", "WARM_IPOPT", "blocks", "map_multipliers", "resample_block",
-           "row_key"]
+def bound_multipliers(lam_w, free, scale, n_segments: int, nlp, source=None,
+                      weight=None) -> np.ndarray:
+    """The bound multipliers of ``nlp``'s unknowns (a :class:`ShootingNLP`: section state,
+    free parameters, durations, nodes, ...) from those ``lam_w`` of another shooting NLP of
+    the same section state, whose free parameters were ``free`` with scales ``scale`` and
+    whose segments were ``n_segments``: each free parameter's from the one named
+    ``source(name)`` (default: the same name), rescaled to this NLP's scale (the unknowns
+    are p / scale) and times ``weight(name)`` (default 1); segment k's duration from
+    segment k modulo ``n_segments``; the rest (unbounded) 0."""
+    lam_w = np.asarray(lam_w, float)
+    out = np.zeros(nlp.w.shape[0])
+    ns = nlp.xs.shape[0]
+    for j, name in enumerate(nlp.free):
+        src = source(name) if source is not None else name
+        if src in free:
+            i = list(free).index(src)
+            out[ns + j] = lam_w[ns + i] * nlp.p_scale[j] / scale[i] * \
+                (weight(name) if weight is not None else 1.0)
+    o, o_src = ns + len(nlp.free), ns + len(free)
+    for k in range(len(nlp.specs)):
+        out[o + k] = lam_w[o_src + k % n_segments]
+    return out
+
+
+__all__ = ["SEGMENT_ROW", "WARM_IPOPT", "blocks", "bound_multipliers", "map_multipliers",
+           "resample_block", "row_key"]

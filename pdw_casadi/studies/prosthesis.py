@@ -66,7 +66,7 @@ from pdw_casadi.gait.stride import (
 )
 from pdw_casadi.model.problem import Problem, ProblemError, load_problem
 from pdw_casadi.nlp.driver import IPOPT_TOL, Progress, ipopt_settings, nlp_functions, succeeded
-from pdw_casadi.nlp.multipliers import WARM_IPOPT, map_multipliers
+from pdw_casadi.nlp.multipliers import WARM_IPOPT, bound_multipliers, map_multipliers
 from pdw_casadi.nlp.shooting import ShootingNLP
 from pdw_casadi.nlp.stability import StabilityRow
 
@@ -375,14 +375,7 @@ class ProsthesisDesignSolver:
         lam_s, _ = map_multipliers(old.g_names, out["lam_g"][:n_old], nlp.g_names,
                                    nlp.hs.nx)
         lam_g = np.r_[lam_s, out["lam_g"][n_old:]]
-        lam_x = np.zeros(self.n_w)
-        ns = nlp.xs.shape[0]
-        for j, name in enumerate(nlp.free):
-            if name in old.free:
-                i = old.free.index(name)
-                lam_x[ns + j] = out["lam_x"][ns + i] * nlp.p_scale[j] / old.p_scale[i]
-        o, o_old = ns + len(nlp.free), ns + len(old.free)
-        lam_x[o: o + len(nlp.specs)] = out["lam_x"][o_old: o_old + len(old.specs)]
+        lam_x = bound_multipliers(out["lam_x"], old.free, old.p_scale, len(old.specs), nlp)
         return lam_x, lam_g
 
     def solve(self, w0, warm: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
