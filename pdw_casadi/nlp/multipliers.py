@@ -115,7 +115,8 @@ def map_multipliers(one_step_rows, lam, stride_rows, nx: int = 1) -> tuple[np.nd
 
 def bound_multipliers(lam_w, free, scale, n_segments: int, nlp, source=None,
                       weight=None) -> np.ndarray:
-    """The bound multipliers of ``nlp``'s unknowns (a :class:`ShootingNLP`: section state,
+    """The bound multipliers of ``nlp``'s unknowns (a
+    :class:`~pdw_casadi.nlp.shooting.ShootingNLP`: section state,
     free parameters, durations, nodes, ...) from those ``lam_w`` of another shooting NLP of
     the same section state, whose free parameters were ``free`` with scales ``scale`` and
     whose segments were ``n_segments``: each free parameter's from the one named
