@@ -429,3 +429,37 @@ def test_table_md_names_the_solve_and_the_fitted_compliance_with_units(problem, 
                               "N m/rad", "yes |"]
     assert rows["c_ankle"][2] == "N m s/rad" and rows["theta_eq"][2] == "rad"
     assert rows["slope"][2:] == ["rad", "no |"]
+
+
+def test_the_gait_file_enters_the_fit_nlp_as_its_parameters_not_its_rows(problem):
+    """Two gait files (the bundled curves and the same curves 5 deg more flexed at the
+    knee, 20 % more hip range) fitted from the same start gait: the rows of their NLPs as
+    functions of (unknowns, samples, parameters) are one and the same function, so the
+    stored Jacobian of one serves the other; the parameters differ by the curves, and the
+    error rows at the start differ by exactly those curve differences (deg)."""
+    from pdw_casadi.fit.core import StepFit
+    from pdw_casadi.model.gait_data import GaitCurves
+
+    human = load_gait_curves("female_fast.csv")
+    df = human.to_frame()
+    df["knee_mean_deg"] += 5.0
+    hip = df["hip_mean_deg"]
+    df["hip_mean_deg"] = hip.mean() + 1.2 * (hip - hip.mean())
+    other = GaitCurves(df, human.source, "flexed")
+    opts = FitOptions(verbose=False)
+    fp = find_fixed_point(problem)
+    solvers = []
+    for h in (human, other):
+        fit = StepFit(problem, h, opts, 0, "test", fp.spectral_radius, floor=0.8)
+        nlp = fit.nlp(fp.state, fp.parameters)
+        solvers.append((nlp, fit.solver(nlp)))
+    (n1, a), (n2, b) = solvers
+    ja, jb = (next(k for k in s._keep if hasattr(k, "rows_of_samples")) for s in (a, b))
+    assert ja.rows_of_samples.serialize() == jb.rows_of_samples.serialize()
+    assert a.p.size == b.p.size == 2 * 101 + 1  # knee, hip, the knee floor's SS_tot
+    assert np.max(np.abs(a.p - b.p)) > 1.0
+    ea, eb = a.err(n1.w0).full().ravel(), b.err(n2.w0).full().ravel()
+    ha = np.r_[human.resample(101).knee_deg, human.resample(101).hip_deg]
+    hb = np.r_[other.resample(101).knee_deg, other.resample(101).hip_deg]
+    np.testing.assert_allclose(ea - eb, hb - ha, atol=1e-9)
+

@@ -13,10 +13,13 @@ from pdw_casadi.nlp.jacobian import StructuredJacobian
 from pdw_casadi.nlp.shooting import ShootingNLP
 
 
-def _check(nlp, g, x, x0):
-    sj = StructuredJacobian(nlp, g, x)
-    ref = ca.Function("J", [x], [ca.jacobian(g, x)])(x0)
-    mine = ca.DM(sj.sparsity, sj.values(x0))
+def _check(nlp, g, x, x0, P=None, p0=None):
+    """``P``: the rows' parameters (a symbol column) and ``p0`` their values."""
+    P = ca.MX.sym("p", 0, 1) if P is None else P
+    p0 = np.zeros(0) if p0 is None else p0
+    sj = StructuredJacobian(nlp, g, x, params=P)
+    ref = ca.Function("J", [x, P], [ca.jacobian(g, x)])(x0, p0)
+    mine = ca.DM(sj.sparsity, sj.values(x0, p0))
     # every entry CasADi finds nonzero lies in the assembled pattern
     refs = ref.sparsity()
     rows, cols = np.asarray(refs.get_triplet()[0]), np.asarray(refs.get_triplet()[1])
@@ -28,29 +31,33 @@ def _check(nlp, g, x, x0):
     assert np.abs(A - ref.full()).max() <= 1e-12 * scale
     # the wrapped CasADi function gives the same values
     f = sj.function()
-    np.testing.assert_array_equal(np.asarray(f(x0).nonzeros()), sj.values(x0))
+    np.testing.assert_array_equal(np.asarray(f(x0, p0).nonzeros()), sj.values(x0, p0))
     # the intervals evaluated on one thread or side by side on three: the same numbers, bit
     # for bit (each thread has its own copy of the compiled functions)
-    one, three = StructuredJacobian(nlp, g, x, workers=1), StructuredJacobian(nlp, g, x, 3)
+    one = StructuredJacobian(nlp, g, x, workers=1, params=P)
+    three = StructuredJacobian(nlp, g, x, 3, params=P)
     assert three._workers == 3
-    np.testing.assert_array_equal(one.values(x0), sj.values(x0))
-    np.testing.assert_array_equal(three.values(x0), sj.values(x0))
+    np.testing.assert_array_equal(one.values(x0, p0), sj.values(x0, p0))
+    np.testing.assert_array_equal(three.values(x0, p0), sj.values(x0, p0))
 
 
 def test_structured_jacobian_of_the_compass_gait_nlp_is_casadis():
     """Free slope, a perturbed point off the starting gait (so that no row is trivially
-    zero), plus a row mixing nodes, durations and the slope nonlinearly."""
+    zero), plus rows mixing nodes, durations and the slope nonlinearly, two of them scaled
+    by parameters of the NLP (as the fit's rows take the human curves)."""
     pb = load_problem("compass_gait")
     fp = find_fixed_point(pb)
     nlp = ShootingNLP(pb, fp.state, fp.parameters, free=("slope",), sample_stride=2)
     extra = ca.MX.sym("e", 3)
+    q = ca.MX.sym("q", 2)
     y = nlp.Y[0][0, :]
-    g = ca.vertcat(nlp.g, extra - ca.vertcat(ca.sumsqr(y) * nlp.T[0], nlp.p[-1] * nlp.T[-1],
-                                            ca.sin(nlp.samples[-1][1, 3])))
+    g = ca.vertcat(nlp.g, extra - ca.vertcat(ca.sumsqr(y) * nlp.T[0] * q[0],
+                                            nlp.p[-1] * nlp.T[-1] - q[1],
+                                            ca.sin(nlp.samples[-1][1, 3]) * q[1]))
     x = ca.vertcat(nlp.w, extra)
     rng = np.random.default_rng(3)
     x0 = np.r_[nlp.w0 * (1 + 1e-3 * rng.standard_normal(nlp.w0.size)), rng.standard_normal(3)]
-    _check(nlp, g, x, x0)
+    _check(nlp, g, x, x0, q, np.array([1.7, -0.4]))
 
 
 @pytest.mark.slow

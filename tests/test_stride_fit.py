@@ -75,7 +75,7 @@ def test_stride_objective_at_equal_sides_is_twice_the_step_objective(fitted):
     e1, e2 = curve_errors(one, h), stride_curve_errors(stride, sides)
 
     def objective(nlp, errs, w):
-        return sum(float(_values(nlp, ca.sumsqr(e) / ss, w)[0]) for e, ss in errs.values())
+        return sum(float(_values(nlp, ca.sumsqr(r.err) / r.ss_tot, w)[0]) for r in errs.values())
 
     f1, f2 = objective(one, e1, one.w0), objective(stride, e2, stride.w0)
     assert f1 > 0.1  # the comparison is of a non-trivial misfit

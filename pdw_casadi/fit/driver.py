@@ -76,8 +76,9 @@ class FitSolver:
         """``extra(nlp) -> MX``: a further objective term of the caller's (e.g. the heel-off
         margin of pdw-seed heeloff); like the timing term it is left out of the
         reported objective, which stays the curve part. ``errors``: the curve error rows
-        (key -> (err, SS_tot)) instead of :func:`curve_errors` of ``human`` (the stride fit's
-        per-leg rows, :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
+        (key -> :class:`~pdw_casadi.fit.objective.CurveRows`) instead of
+        :func:`curve_errors` of ``human`` (the stride fit's per-leg rows,
+        :mod:`.stride_objective`). ``radius_bound``: the stability row's upper
         bound (default :meth:`FitOptions.radius_bound`, ``max_radius - radius_margin``; a
         stride's is that squared).
         ``knee_floor``: a row knee R^2 >= this value (:attr:`FitOptions.knee_floor`)."""
@@ -86,11 +87,18 @@ class FitSolver:
             raise ValueError(f"jacobian must be 'structured' or 'casadi', got {opts.jacobian!r}")
         errs = errors if errors is not None else curve_errors(nlp, human, opts.targets())
         rows, obj, self.E, self.ss = [], 0, {}, {}
-        for target, (err, ss_tot) in errs.items():
-            E = ca.MX.sym(f"E_{target}", 1, err.shape[1])
-            self.E[target], self.ss[target] = E, ss_tot
-            rows.append(ca.vec(E - err))
-            obj = obj + ca.sumsqr(E) / ss_tot
+        # the gait file enters the rows only as the NLP's parameters (the human angles and
+        # the knee floor's SS_tot), never as constants: the rows' Jacobian, built once
+        # and stored per start gait (nlp.jacobian), then serves every gait file
+        data, values = [], []
+        for target, r in errs.items():
+            E = ca.MX.sym(f"E_{target}", 1, r.err.shape[1])
+            H = ca.MX.sym(f"H_{target}", 1, r.err.shape[1])
+            self.E[target], self.ss[target] = E, r.ss_tot
+            rows.append(ca.vec(E - (r.model - H)))
+            obj = obj + ca.sumsqr(E) / r.ss_tot
+            data.append(ca.vec(H))
+            values.append(np.asarray(r.values, float).ravel())
         self.timing = None
         if opts.timing_weight > 0:
             stance = stance_pct_expr(nlp)
@@ -104,13 +112,18 @@ class FitSolver:
             obj = obj + term
             self.extra = ca.Function("extra_term", [nlp.w], [term])
         self.e = ca.vertcat(*[ca.vec(E) for E in self.E.values()])
-        self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(e) for e, _ in
-                                                             errs.values()])])
+        self.err = ca.Function("err", [nlp.w], [ca.vertcat(*[ca.vec(r.err)
+                                                             for r in errs.values()])])
         floor_rows, floor_ub = [], []
         if knee_floor is not None and "knee" in self.E:
             # 1 - R^2_knee <= 1 - floor: the knee never traded for the hip below the floor
-            floor_rows.append(ca.sumsqr(self.E["knee"]) / self.ss["knee"])
+            ss = ca.MX.sym("ss_tot_knee")
+            floor_rows.append(ca.sumsqr(self.E["knee"]) / ss)
             floor_ub.append(1.0 - knee_floor - opts.knee_floor_margin)
+            data.append(ss)
+            values.append([self.ss["knee"]])
+        #: the NLP's parameter values: the human curves (deg) and the knee's SS_tot (deg^2)
+        self.p = np.concatenate(values) if values else np.zeros(0)
         self.n_w = nlp.w.shape[0]
         self.x = ca.vertcat(nlp.w, self.e)
         self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
@@ -118,7 +131,8 @@ class FitSolver:
         self.cap = [None]  # set per solve (FitOptions.iterate_radius_slack)
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
             self.x, obj, ca.vertcat(nlp.g, *rows, *floor_rows), self.row, self.n_w,
-            nlp if opts.jacobian == "structured" else None, self.cap, opts.threads)
+            nlp if opts.jacobian == "structured" else None, self.cap, opts.threads,
+            params=ca.vertcat(*data) if data else None)
         self.lo, self.hi = nlp.bounds(opts.slope_bounds)
         ne = self.e.shape[0]
         self.lbg = np.r_[nlp.lbg, np.zeros(ne), np.full(len(floor_ub), -np.inf)]
@@ -283,7 +297,7 @@ class FitSolver:
                             "show_eval_warnings": False})
         t0 = time.perf_counter()
         args = {"x0": np.r_[w0, e0], "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg,
-                "ubg": self.ubg}
+                "ubg": self.ubg, "p": self.p}
         if warm is not None and warm.lam_x is not None:
             args.update(lam_x0=warm.lam_x, lam_g0=warm.lam_g)
         sol = solver(**args)

@@ -12,6 +12,8 @@ re-simulated gait (:mod:`pdw_casadi.gait.curves`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import casadi as ca
 import numpy as np
 
@@ -28,6 +30,21 @@ GAP_FACTOR = 3.0
 TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
 
 
+class CurveRows(NamedTuple):
+    """One target's error rows at the human curve's 101 cycle points."""
+
+    #: the model minus the human angle (deg), 1 x 101 MX of the NLP unknowns
+    err: ca.MX
+    #: the human curve's sum of squares about its mean (deg^2): sum err^2 / ss_tot = 1 - R^2
+    ss_tot: float
+    #: the model's angle alone (deg), 1 x 101 MX: ``err`` = ``model`` - ``values``. What
+    #: depends on the gait file only through ``values``, so that an NLP built on
+    #: ``model`` with the human curve as its parameter is the same for every gait file
+    model: ca.MX
+    #: the human angles (deg), 101 values
+    values: np.ndarray
+
+
 def check_targets(problem, human, opts) -> None:
     """Raise :class:`CurveError` before any work when the curves or the walker lack a target
     of ``opts`` (:class:`~pdw_casadi.fit.FitOptions`)."""
@@ -40,9 +57,9 @@ def check_targets(problem, human, opts) -> None:
 
 
 def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
-    """Per target: (err, SS_tot) with ``err`` the model minus human angle (deg) at the 101
-    points of the gait cycle (1 x 101 MX), so that sum err^2 / SS_tot is 1 - R^2 of the
-    101-point definition.
+    """Per target its :class:`CurveRows`: ``err`` the model minus human angle (deg) at the
+    101 points of the gait cycle (1 x 101 MX), so that sum err^2 / ``ss_tot`` is 1 - R^2 of
+    the 101-point definition.
 
     The model's value at cycle point j is the linear interpolation between the two RK4
     samples (0.5 ms apart, of the leg whose part of the cycle holds j) that bracket it in the
@@ -82,12 +99,13 @@ def curve_errors(nlp, human, targets=("knee", "hip")) -> dict:
 
 
 def interpolated_errors(nlp, pct: dict, model, human, targets) -> dict:
-    """Per target: (err, SS_tot), the model minus human angle (deg) at the human curve's 101
-    cycle points. ``pct``: part -> the cycle percentage of that part's RK4 samples (1 x n
-    MX of the NLP unknowns; a part is a stretch of the cycle, e.g. one leg's samples);
-    ``model(stem)``: part -> the model's ``stem`` angle at the same samples. Each cycle
-    point is the linear interpolation between the two samples of one part that bracket it
-    at the starting gait (``nlp.w0``); the part whose bracket holds the point is chosen."""
+    """Per target its :class:`CurveRows`: the model minus human angle (deg) at the human
+    curve's 101 cycle points. ``pct``: part -> the cycle percentage of that part's RK4
+    samples (1 x n MX of the NLP unknowns; a part is a stretch of the cycle, e.g. one
+    leg's samples); ``model(stem)``: part -> the model's ``stem`` angle at the same
+    samples. Each cycle point is the linear interpolation between the two samples of one
+    part that bracket it at the starting gait (``nlp.w0``); the part whose bracket holds
+    the point is chosen."""
     pct0 = {leg: ca.Function("pct", [nlp.w], [v])(nlp.w0).full().ravel()
             for leg, v in pct.items()}
     h = human.resample(CYCLE_POINTS)
@@ -116,10 +134,11 @@ def interpolated_errors(nlp, pct: dict, model, human, targets) -> dict:
         vals = np.asarray(getattr(h, column), float)
         ss_tot = float(np.sum((vals - vals.mean()) ** 2))
         y = model(stem)
-        errs = []
-        for (leg, a, b), g, v in zip(choice, grid, vals, strict=True):
+        at = []
+        for (leg, a, b), g in zip(choice, grid, strict=True):
             pa, pb = pct[leg][a], pct[leg][b]
             ya, yb = y[leg][a], y[leg][b]
-            errs.append(ya + (yb - ya) * (g - pa) / (pb - pa) - v)
-        out[target] = (ca.horzcat(*errs), ss_tot)
+            at.append(ya + (yb - ya) * (g - pa) / (pb - pa))
+        model_at = ca.horzcat(*at)
+        out[target] = CurveRows(model_at - ca.DM(vals).T, ss_tot, model_at, vals)
     return out

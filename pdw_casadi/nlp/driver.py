@@ -78,7 +78,8 @@ class Iterate:
 
 
 def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
-                  cap: list | None = None, threads: int | None = None):
+                  cap: list | None = None, threads: int | None = None,
+                  params: ca.MX | None = None):
     """The NLP's (x, p) -> (f, g) and the assembled (x, p) -> (g, jac_g_x) for IPOPT.
 
     With the :class:`~pdw_casadi.nlp.shooting.ShootingNLP` ``nlp`` whose unknowns start
@@ -87,18 +88,19 @@ def nlp_functions(x, f, g_base, row: StabilityRow | None, n_w: int, nlp=None,
     ([value] or [None], read at every evaluation): a stability row above the value is NaN,
     which IPOPT treats as an evaluation error and answers by cutting its step back, so that
     no iterate lies above it. ``threads``: threads of the assembled Jacobian (None: one
-    per core)."""
-    P = ca.MX.sym("p", 0, 1)
+    per core). ``params``: the NLP's parameters p (a symbol column; the values are given to
+    the solver), on which ``f`` and ``g_base`` may depend (default: none)."""
+    P = ca.MX.sym("p", 0, 1) if params is None else params
     dense = ca.Sparsity.dense
     if nlp is not None and row is not None:
-        return _overlapped(x, f, g_base, row, n_w, StructuredJacobian(nlp, g_base, x, threads),
-                           cap, P)
+        return _overlapped(x, f, g_base, row, n_w,
+                           StructuredJacobian(nlp, g_base, x, threads, P), cap, P)
     if nlp is not None:
-        structured = StructuredJacobian(nlp, g_base, x, threads).function("fit_jac_base")
-        g, J = g_base, structured(x)
+        structured = StructuredJacobian(nlp, g_base, x, threads, P).function("fit_jac_base")
+        g, J = g_base, structured(x, P)
     else:
         structured = None
-        g, J = g_base, ca.Function("fit_jac_base", [x], [ca.jacobian(g_base, x)])(x)
+        g, J = g_base, ca.Function("fit_jac_base", [x, P], [ca.jacobian(g_base, x)])(x, P)
     if row is not None:
         n = x.shape[0]
 
@@ -156,14 +158,15 @@ def _overlapped(x, f, g_base, row: StabilityRow, n_w: int, structured: Structure
     def both(a):
         xv = np.asarray(a[0], float).ravel()
         pending = side.submit(row.gradient, xv[:n_w])
-        base = np.asarray(structured.values(xv), float).ravel()
+        base = np.asarray(structured.values(xv, np.asarray(a[1], float).ravel()),
+                          float).ravel()
         return [ca.DM(sp, np.concatenate([base, pending.result()])[order])]
 
-    jac = NumericFunction("fit_jac", [dense(n, 1)], [sp], both)
+    jac = NumericFunction("fit_jac", [dense(n, 1), dense(P.shape[0], 1)], [sp], both)
     value = _row_value(row, n, n_w, cap, gradient)
     g = ca.vertcat(g_base, value(x))
     nlp = ca.Function("pdw_fit_nlp", [x, P], [f, g], ["x", "p"], ["f", "g"])
-    jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, jac(x)], ["x", "p"], ["g", "jac_g_x"])
+    jac_g = ca.Function("pdw_fit_jac_g", [x, P], [g, jac(x, P)], ["x", "p"], ["g", "jac_g_x"])
     return nlp, jac_g, (jac, value, structured, side)
 
 

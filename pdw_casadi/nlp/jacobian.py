@@ -37,14 +37,14 @@ def _csc(dm: ca.DM) -> sps.csc_matrix:
 
 
 def _rows_jacobian(G: ca.Function) -> ca.Function:
-    """(x, S) -> (dg/dx, dg/dS) of the rows G(x, S)."""
+    """(x, S, p) -> (dg/dx, dg/dS) of the rows G(x, S, p)."""
     try:  # SX: differentiated and evaluated far faster than the MX graph
         G = G.expand()
-        xs_, S_ = G.sx_in()
+        xs_, S_, p_ = G.sx_in()
     except RuntimeError:  # a walker function that has no SX form
-        xs_, S_ = G.mx_in()
-    gv = G(xs_, S_)
-    return ca.Function("rows_jac", [xs_, S_], [ca.jacobian(gv, xs_), ca.jacobian(gv, S_)])
+        xs_, S_, p_ = G.mx_in()
+    gv = G(xs_, S_, p_)
+    return ca.Function("rows_jac", [xs_, S_, p_], [ca.jacobian(gv, xs_), ca.jacobian(gv, S_)])
 
 
 class StructuredJacobian:
@@ -55,9 +55,12 @@ class StructuredJacobian:
     point; :meth:`function` a CasADi function x -> dg/dx for nlpsol.
     """
 
-    def __init__(self, nlp, g: ca.MX, x: ca.MX, workers: int | None = None):
+    def __init__(self, nlp, g: ca.MX, x: ca.MX, workers: int | None = None,
+                 params: ca.MX | None = None):
         """``workers``: threads that evaluate the compiled intervals side by side (default:
-        one per core; the results do not depend on it)."""
+        one per core; the results do not depend on it). ``params``: the NLP's parameters
+        (a symbol column) on which the rows may depend: an input of the stored rows'
+        Jacobian, so that it serves every value (e.g. every gait file's curves)."""
         self.nlp = nlp
         nx = nlp.hs.nx
         self.n_x, self.m = x.shape[0], g.shape[0]
@@ -65,10 +68,14 @@ class StructuredJacobian:
         SY = [ca.MX.sym(f"S_Y{k}", *Y.shape) for k, Y in enumerate(nlp.Y)]
         gs = ca.graph_substitute(g, [*nlp.samples, *nlp.Y], SX + SY)
         S = ca.vertcat(*[ca.vec(a) for a in SX + SY])
-        G = ca.Function("rows_of_samples", [x, S], [gs])
+        P = ca.MX.sym("p", 0, 1) if params is None else params
+        self.n_p = P.shape[0]
+        G = ca.Function("rows_of_samples", [x, S, P], [gs])
         if G.has_free():
             raise ValueError("the rows depend on the samples other than through the NLP's "
                              "intervals")
+        #: the rows as a function of (x, S, p): what the stored Jacobian is keyed by
+        self.rows_of_samples = G
         self._G = stored(G, lambda: _rows_jacobian(G), "rows_jac")
         Gx0, GS0 = (self._G.sparsity_out(i) for i in range(2))
         used = np.unique(np.asarray(GS0.get_col(), int)) if GS0.nnz() else np.zeros(0, int)
@@ -158,8 +165,12 @@ class StructuredJacobian:
                 out[k, i] = (a, b, jacf(X[:, i], ps, mode, h, a, b))
         return out
 
-    def values(self, x) -> np.ndarray:
-        """The nonzeros of dg/dx at ``x`` in :attr:`sparsity`'s order."""
+    def values(self, x, p=None) -> np.ndarray:
+        """The nonzeros of dg/dx at ``x`` (and the parameters ``p``, default none) in
+        :attr:`sparsity`'s order."""
+        p_val = np.zeros(0) if p is None else np.asarray(p, float).ravel()
+        if p_val.size != self.n_p:
+            raise ValueError(f"{self.n_p} parameter values expected, got {p_val.size}")
         nlp, nx, nf = self.nlp, self.nlp.hs.nx, self._nf
         x = np.asarray(x, float).ravel()
         u = nlp.unpack(x[: nlp.w.shape[0]])
@@ -205,7 +216,7 @@ class StructuredJacobian:
             cp = j[:, None] * npar + np.arange(npar)[None, :]
             data[sel, nx: nx + nf] = dp[lr[:, None], cp] @ self._dp[step]
             data[sel, -1] = dh[lr, j] / (s.n_int * s.n_sub)
-        Gx, GS = self._G(x, S)
+        Gx, GS = self._G(x, S, p_val)
         J = (_csc(Gx) + _csc(GS)[:, self._used] @ self._Sx(data.ravel())).tocoo()
         out = np.zeros(self._keys.size)
         pos = np.searchsorted(self._keys, J.col.astype(np.int64) * self.m + J.row)
@@ -213,7 +224,9 @@ class StructuredJacobian:
         return out
 
     def function(self, name: str = "structured_jacobian") -> NumericFunction:
-        """x -> dg/dx as a CasADi function (a Python callback; keep it referenced)."""
+        """(x, p) -> dg/dx as a CasADi function (a Python callback; keep it referenced)."""
         sp = self.sparsity
-        return NumericFunction(name, [ca.Sparsity.dense(self.n_x, 1)], [sp],
-                               lambda a: [ca.DM(sp, self.values(np.asarray(a[0])))])
+        dense = ca.Sparsity.dense
+        return NumericFunction(name, [dense(self.n_x, 1), dense(self.n_p, 1)], [sp],
+                               lambda a: [ca.DM(sp, self.values(np.asarray(a[0]),
+                                                                np.asarray(a[1])))])
