@@ -30,12 +30,6 @@ from pdw_casadi.engine.compile import stored
 from pdw_casadi.nlp.interval import interval_natives
 
 
-def _csc(dm: ca.DM) -> sps.csc_matrix:
-    sp = dm.sparsity()
-    return sps.csc_matrix((np.asarray(dm.nonzeros(), float), np.asarray(sp.row()),
-                           np.asarray(sp.colind())), shape=(sp.size1(), sp.size2()))
-
-
 def _rows_jacobian(G: ca.Function) -> ca.Function:
     """(x, S, p) -> (dg/dx, dg/dS) of the rows G(x, S, p)."""
     try:  # SX: differentiated and evaluated far faster than the MX graph
@@ -140,6 +134,7 @@ class StructuredJacobian:
         self.sparsity = ca.Sparsity(self.m, self.n_x, P.indptr.tolist(), P.indices.tolist())
         counts = np.diff(P.indptr)
         self._keys = np.repeat(np.arange(self.n_x), counts) * self.m + P.indices
+        self._plan(Gx0, GS0, cols)
         # per worker thread its own copy of each phase's compiled interval and Jacobian
         # (buffers are per copy); interval i of every segment goes to worker i % workers
         pairs = {s.phase: interval_natives(nlp.hs, s.phase, s.n_sub) for s in nlp.specs}
@@ -149,6 +144,22 @@ class StructuredJacobian:
                                              for f in pair) for ph, pair in pairs.items()}
                                   for _ in range(self._workers - 1)]
         self._pool = ThreadPoolExecutor(self._workers) if self._workers > 1 else None
+
+    def _plan(self, Gx0: ca.Sparsity, GS0: ca.Sparsity, cols: np.ndarray) -> None:
+        """Where each product G_S[i, k] S_x[k, j] and each entry of G_x goes among the
+        nonzeros of dg/dx (fixed patterns, so planned once): :meth:`values` is then one
+        weighted ``bincount``. The products of an entry are summed in ascending k, as a
+        sparse matrix product sums them, so the values do not depend on the plan."""
+        m, width = self.m, self._width
+        rows = np.asarray(GS0.row(), np.int64)
+        k = np.searchsorted(self._used, np.asarray(GS0.get_col(), np.int64))
+        a = np.repeat(np.arange(rows.size), width)  # the G_S nonzero of each product
+        b = (k[:, None] * width + np.arange(width)[None, :]).ravel()  # its S_x entry
+        pos = np.searchsorted(self._keys, cols.ravel()[b].astype(np.int64) * m + rows[a])
+        order = np.lexsort((k[a], pos))
+        self._prod = (a[order], b[order], pos[order])
+        self._pos_x = np.searchsorted(self._keys, np.asarray(Gx0.get_col(), np.int64) * m
+                                      + np.asarray(Gx0.row(), np.int64))
 
     def _Sx(self, data) -> sps.csr_matrix:
         return sps.csr_matrix((data, self._Sx_indices, self._Sx_indptr),
@@ -217,10 +228,10 @@ class StructuredJacobian:
             data[sel, nx: nx + nf] = dp[lr[:, None], cp] @ self._dp[step]
             data[sel, -1] = dh[lr, j] / (s.n_int * s.n_sub)
         Gx, GS = self._G(x, S, p_val)
-        J = (_csc(Gx) + _csc(GS)[:, self._used] @ self._Sx(data.ravel())).tocoo()
-        out = np.zeros(self._keys.size)
-        pos = np.searchsorted(self._keys, J.col.astype(np.int64) * self.m + J.row)
-        np.add.at(out, pos, J.data)
+        a, b, pos = self._prod
+        out = np.bincount(pos, weights=np.asarray(GS.nonzeros())[a] * data.ravel()[b],
+                          minlength=self._keys.size)
+        out[self._pos_x] += np.asarray(Gx.nonzeros())
         return out
 
     def function(self, name: str = "structured_jacobian") -> NumericFunction:
