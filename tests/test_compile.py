@@ -119,6 +119,45 @@ def test_a_stored_function_is_built_once_and_loaded_with_the_same_values(tmp_pat
     assert len(list(tmp_path.glob("t_*.casadi.z"))) == 2
 
 
+def test_a_merged_function_is_stored_and_computes_what_casadi_merges(tmp_path, monkeypatch):
+    """cse_function(): the same function as CasADi's own common-subexpression elimination
+    (the same operations, the same values bit for bit, fewer operations than unmerged), and
+    a second call (as a new process) loads it from the cache instead of merging again."""
+    import casadi as ca
+
+    from pdw_casadi.engine import compile as comp
+
+    monkeypatch.setenv("PDW_CACHE", str(tmp_path))
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p")
+    e = ca.sin(x[0] + p) * ca.cos(x[1]) + ca.sin(x[0] + p) ** 2
+    outs = [ca.vertcat(e, ca.cos(x[1]) * p), ca.jacobian(e, x)]
+    ref = ca.Function("f", [x, p], outs, ["x", "p"], ["y", "J"], {"cse": True})
+    plain = ca.Function("f", [x, p], outs, ["x", "p"], ["y", "J"])
+    merged = comp.cse_function("f", [x, p], outs, ["x", "p"], ["y", "J"])
+    assert merged.n_instructions() == ref.n_instructions() < plain.n_instructions()
+    assert merged.name_in() == ["x", "p"] and merged.name_out() == ["y", "J"]
+    (path,) = tmp_path.glob("cse_*.casadi.z")
+    built = path.stat().st_mtime_ns
+    monkeypatch.setattr(comp.ca, "Function", _no_merge(ca.Function))
+    again = comp.cse_function("f", [x, p], outs, ["x", "p"], ["y", "J"])
+    assert path.stat().st_mtime_ns >= built and len(list(tmp_path.glob("cse_*"))) == 1
+    pt = [np.array([0.4, -0.9]), 1.3]
+    for a, b in zip(ref(*pt), again(*pt), strict=True):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+
+
+def _no_merge(function):
+    """ca.Function that refuses to merge (a stored merged function must be loaded)."""
+
+    def make(*args):
+        if args and isinstance(args[-1], dict) and args[-1].get("cse"):
+            raise AssertionError("merged again instead of loaded")
+        return function(*args)
+
+    make.deserialize = function.deserialize
+    return make
+
+
 def test_a_library_found_by_signature_is_checked_by_its_values(tmp_path, monkeypatch):
     """A new process finds a function's library under its cheap signature without hashing
     its serialization; a function of the same structure with another constant (another

@@ -71,7 +71,7 @@ class _Sensitivities:
         nx, npar, nm = hs.nx, hs.np, hs.nm
         nz = ns + npar
         self.ns, self.nz = ns, nz
-        x, p = ca.SX.sym("x", nx), model.p
+        p = model.p
         xs = ca.SX.sym("xs", ns)
         x0 = model.section_to_full(xs, p)
         #: every compiled library of the sensitivities (see ``build_libraries``)
@@ -85,7 +85,7 @@ class _Sensitivities:
         self.Sp = np.asarray(Sp)
         self.chunks, self.partial = {}, {}
         for name in hs.rhs:
-            jac = hs.rhs_jacobian(name, x)
+            jac = hs.rhs_jacobian(name)
             X, S = ca.MX.sym("X", nx), ca.MX.sym("S", nx * nz)
             H, P, M = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm)
             Sm = ca.reshape(S, nx, nz)

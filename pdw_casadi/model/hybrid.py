@@ -17,7 +17,7 @@ from typing import NamedTuple
 
 import casadi as ca
 
-from pdw_casadi.engine.compile import HOT, INTERPRETED, Lazy
+from pdw_casadi.engine.compile import HOT, INTERPRETED, Lazy, cse_function
 from pdw_casadi.engine.rk4 import rk4
 from pdw_casadi.model.margins import (
     GUARD_AHEAD,
@@ -42,7 +42,6 @@ class EventKind(StrEnum):
 GUARD, SWITCH, FAILURE = EventKind.GUARD, EventKind.SWITCH, EventKind.FAILURE
 
 Mode = dict[str, float]
-CSE = {"cse": True}  # SX function option: merge repeated subexpressions
 
 
 @dataclass(frozen=True)
@@ -209,6 +208,7 @@ class HybridSystem:
         self.np = p.shape[0]
         self.nm = m.shape[0]
         self.mode_keys = model.mode_keys
+        self._rhs_jac: dict[str, ca.Function] = {}  # rhs_jacobian, built on first use
         x = ca.SX.sym("x", self.nx)
         h = ca.SX.sym("h")
         self.chunk_size = chunk_size
@@ -269,10 +269,10 @@ class HybridSystem:
         xdot = self.subs_x(ca.vertcat(model.system.qd, ph.qdd, model.damping_power))
         # cse: the expression graph repeats subexpressions (sin/cos of the same angles,
         # products in M_q); merging them saves ~12 % of the operations, same values
-        rhs = ca.Function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"], CSE)
+        rhs = cse_function(f"rhs_{ph.name}", [x, p, m], [xdot], ["x", "p", "m"], ["xdot"])
         x_next = rk4(lambda y: rhs(y, p, m), x, h)
-        step = ca.Function(f"step_{ph.name}", [x, h, p, m], [x_next],
-                           ["x", "h", "p", "m"], ["xf"], CSE)
+        step = cse_function(f"step_{ph.name}", [x, h, p, m], [x_next],
+                            ["x", "h", "p", "m"], ["xf"])
         return rhs, step
 
     def _phase_events(self, ph: Phase, step: ca.Function
@@ -282,15 +282,15 @@ class HybridSystem:
         and the state a partial step tau (s) after x (the Newton location of a crossing)."""
         x, p, m = self.x_sym, self.model.p, self.model.m
         g = self.subs_x(ca.vertcat(*[e.expr for e in ph.events]))
-        events = ca.Function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"], CSE)
+        events = cse_function(f"events_{ph.name}", [x, p, m], [g], ["x", "p", "m"], ["g"])
         req = self.subs_x(ca.vertcat(*[e.require if e.require is not None else ca.SX(1.0)
                                        for e in ph.events]))
         self.require[ph.name] = Lazy(ca.Function(f"require_{ph.name}", [x, p, m], [req]))
         tau = ca.SX.sym("tau")
         x_tau = step(x, tau, p, m)
         g_tau = events(x_tau, p, m)
-        locate = ca.Function(f"locate_{ph.name}", [x, tau, p, m],
-                             [g_tau, ca.jacobian(g_tau, tau), x_tau], CSE)
+        locate = cse_function(f"locate_{ph.name}", [x, tau, p, m],
+                              [g_tau, ca.jacobian(g_tau, tau), x_tau])
         return g, events, locate
 
     def _phase_outputs(self, ph: Phase) -> ca.Function:
@@ -319,13 +319,12 @@ class HybridSystem:
         # are the same.
         xg = self.subs_x(ca.vertcat(model.system.qd, ph.qdd, model.damping_power,
                                     *[e.expr for e in ph.events]))
-        fg = ca.Function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]],
-                         CSE)
+        fg = cse_function(f"rhs_events_{ph.name}", [x, p, m], [xg[: self.nx], xg[self.nx:]])
         z = ca.SX.sym("z", 2 * self.nx)
         xz, k1 = z[: self.nx], z[self.nx:]
         xn = rk4(lambda y: rhs(y, p, m), xz, h, k1=k1)
         k1n, gn = fg(xn, p, m)
-        fsal = ca.Function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn], CSE)
+        fsal = cse_function(f"fsal_{ph.name}", [z, h, p, m], [ca.vertcat(xn, k1n), gn])
         acc = fsal.mapaccum(f"acc_{ph.name}", self.chunk_size, [0], [0])
         X0 = ca.MX.sym("x0", self.nx)
         hh, pp, mm = ca.MX.sym("h"), ca.MX.sym("p", self.np), ca.MX.sym("m", self.nm)
@@ -414,14 +413,16 @@ class HybridSystem:
         return [*(f for t in tables for f in t.values()), self.energy, self.step_length,
                 self.section_to_full, self.full_to_section]
 
-    def rhs_jacobian(self, phase: str, x: ca.SX) -> ca.Function:
+    def rhs_jacobian(self, phase: str) -> ca.Function:
         """(xdot, dxdot/dx, dxdot/dp) of a phase as one SX function of (x, p, m) (the
-        sensitivities of the Poincare map and of the shooting intervals chain it); ``x``:
-        the caller's state symbol."""
-        p, m = self.model.p, self.model.m
-        xdot = self.rhs[phase](x, p, m)
-        return ca.Function(f"rhs_jac_{phase}", [x, p, m],
-                           [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)], {"cse": True})
+        sensitivities of the Poincare map and of the shooting intervals chain it), built
+        once per phase (30 ms for the 6-link walker's stance phase)."""
+        if phase not in self._rhs_jac:
+            x, p, m = ca.SX.sym("x", self.nx), self.model.p, self.model.m
+            xdot = self.rhs[phase](x, p, m)
+            self._rhs_jac[phase] = cse_function(
+                f"rhs_jac_{phase}", [x, p, m], [xdot, ca.jacobian(xdot, x), ca.jacobian(xdot, p)])
+        return self._rhs_jac[phase]
 
     # -- named outputs ---------------------------------------------------------------
     def impact_at(self, transition: str, x, p) -> Impact:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 
 from pdw_casadi.engine.callback import NumericFunction
-from pdw_casadi.engine.compile import HOT, LazyGroup, compiled, native
+from pdw_casadi.engine.compile import HOT, LazyGroup, compiled, cse_function, native
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem
 
@@ -35,11 +35,11 @@ def _symbolic(hs: HybridSystem, phase: str, n_sub: int) -> tuple[ca.Function, ca
     nx, npar, nm = hs.nx, hs.np, hs.nm
     nz = nx + npar + 1  # z = (x0, p, h)
     x, p, m = ca.SX.sym("x", nx), model.p, model.m
-    rhs_jac = hs.rhs_jacobian(phase, x)
+    rhs_jac = hs.rhs_jacobian(phase)
     yv = ca.vertcat(hs.outputs[phase].fun(x, p, m), hs.events[phase].fun(x, p, m))
     ny = yv.shape[0]
-    y_jac = ca.Function(f"y_jac_{phase}", [x, p, m],
-                        [yv, ca.jacobian(yv, x), ca.jacobian(yv, p)], {"cse": True})
+    y_jac = cse_function(f"y_jac_{phase}", [x, p, m],
+                         [yv, ca.jacobian(yv, x), ca.jacobian(yv, p)])
     X, S = ca.MX.sym("X", nx), ca.MX.sym("S", nx * nz)
     H, P, M = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm)
     Sm = ca.reshape(S, nx, nz)

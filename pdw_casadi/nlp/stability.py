@@ -42,7 +42,7 @@ import casadi as ca
 import numpy as np
 from scipy.linalg import schur, solve_sylvester
 
-from pdw_casadi.engine.compile import HOT, LazyGroup, interpreted
+from pdw_casadi.engine.compile import HOT, LazyGroup, cse_function, interpreted
 from pdw_casadi.engine.rk4 import rk4_sensitivities
 from pdw_casadi.model.hybrid import HybridSystem, Impact
 
@@ -217,7 +217,7 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
         # chain the right-hand side's Jacobian (small SX code, compiled in seconds; the
         # reverse sweep then needs only that Jacobian's reverse mode, second-order AD)
         xdot = hs.rhs[phase](x, p, m)
-        rj = ca.Function(f"zrhs_{phase}", [x, p, m], [xdot, ca.jacobian(xdot, x)], {"cse": True})
+        rj = cse_function(f"zrhs_{phase}", [x, p, m], [xdot, ca.jacobian(xdot, x)])
         A = ca.MX.sym("A", nx + nx * (ns + 1))  # (X, vec Z)
         X, Zm = A[:nx], ca.reshape(A[nx:], nx, ns + 1)
         H, P, M, C = ca.MX.sym("h"), ca.MX.sym("p", npar), ca.MX.sym("m", nm), ca.MX.sym("c")
@@ -240,8 +240,8 @@ def _blocks(hs: HybridSystem, n_sub: int) -> _Blocks:
         gx = ca.jacobian(g, x)
         R, b = Z[:, :ns], Z[:, ns]
         Rp = R - ca.mtimes(b, ca.mtimes(gx, R)) / ca.mtimes(gx, b)
-        group.update(_named(ca.Function(f"zproj_{phase}", [x, p, m, sel, ca.vec(Z)],
-                                        [ca.vec(Rp)], {"cse": True})))
+        group.update(_named(cse_function(f"zproj_{phase}", [x, p, m, sel, ca.vec(Z)],
+                                         [ca.vec(Rp)])))
     # impacts: three calls per sweep, but large expressions (the impulse solve expanded),
     # which gcc takes minutes to compile: CasADi's interpreter runs them in milliseconds;
     # without common-subexpression elimination, which would take longer to build (0.6 s
