@@ -499,3 +499,33 @@ def test_json_summary_of_a_simulation_round_trips(tmp_path, capsys):
     assert code == 0, err
     s = json.loads((out / "summary.json").read_text())
     assert [p["name"] for p in s["phases"][0]] == ["unlocked", "locked"]
+
+
+def test_a_finished_console_script_exits_with_its_code_handlers_run_and_buffers_flushed(
+        tmp_path):
+    """The end of a console script skips the interpreter's teardown (_exit_after_work):
+    the process still exits with the command's code, its exit handlers run (temporary
+    folders, logs), and what it wrote to Python's and to C's buffered standard output
+    (IPOPT's and CasADi's prints) arrives."""
+    import os
+    import subprocess
+    import sys
+
+    mark = tmp_path / "handler_ran"
+    code = f"""
+import atexit, ctypes, sys
+from pdw_casadi.cli import scripts
+from pdw_casadi.engine import interrupt
+interrupt.EXIT_AT_ONCE[0] = True
+atexit.register(lambda: open({str(mark)!r}, "w").write("ran"))
+print("python line", end="")
+ctypes.CDLL(None).printf(b" c line")
+scripts._exit_after_work(3)
+"""
+    # as on a user's machine: buffered standard output (this machine's shell unbuffers it)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=60, env=env)
+    assert done.returncode == 3, done.stderr
+    assert done.stdout == "python line c line"
+    assert mark.read_text() == "ran"
