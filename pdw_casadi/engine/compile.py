@@ -454,13 +454,17 @@ def compiled(fun, flags: tuple[str, ...] = HOT):
 STORED_KEEP = 16
 
 
-def stored(source: ca.Function, build, tag: str, keep: int | None = None) -> ca.Function:
+def stored(source: ca.Function, build, tag: str, keep: int | None = None,
+           as_loaded: bool = False) -> ca.Function:
     """The function ``build()`` derives from ``source`` (e.g. its Jacobian), built once per
     machine and kept serialized (zlib) in the cache (``tag_<key>.casadi.z``), keyed by
     ``source``'s serialization and CasADi's version: a new process loads it (about half the
     time of building an expanded Jacobian) instead of differentiating again. The ``keep``
     (default :data:`STORED_KEEP`) most recently used of a tag are kept. Without a usable
-    cache, or when the stored file does not load, it is built (and stored again)."""
+    cache, or when the stored file does not load, it is built (and stored again).
+    ``as_loaded``: a function just built is returned as a later process loads it (read
+    back from its serialization), so that what is derived from it and keyed by its own
+    serialization (the rows' Jacobian of an NLP calling it) is the same in every process."""
     with _LOCK:
         base = _usable_cache()
     if base is None:
@@ -476,9 +480,12 @@ def stored(source: ca.Function, build, tag: str, keep: int | None = None) -> ca.
             _warn(str(path), f"damaged stored function {path}: rebuilt")
     fun = build()
     tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    text = fun.serialize()
+    if as_loaded:
+        fun = ca.Function.deserialize(text)
     try:
         # level 1: a ninth of the text's size, decompressed in a tenth of a second
-        tmp.write_bytes(zlib.compress(fun.serialize().encode(), 1))
+        tmp.write_bytes(zlib.compress(text.encode(), 1))
         os.replace(tmp, path)  # atomic: a concurrent reader never sees half a file
         old = sorted(base.glob(f"{tag}_*.casadi.z"), key=lambda q: q.stat().st_mtime)
         for q in old[:-(STORED_KEEP if keep is None else keep)]:
@@ -504,7 +511,7 @@ def cse_function(name: str, ins: list, outs: list, names_in: list[str] | None = 
     names = [] if names_in is None else [names_in, names_out]
     plain = ca.Function(name, ins, outs, *names)
     return stored(plain, lambda: ca.Function(name, ins, outs, *names, {"cse": True}), "cse",
-                  keep=CSE_KEEP)
+                  keep=CSE_KEEP, as_loaded=True)
 
 
 _INT = ctypes.c_longlong  # casadi_int of the generated code
