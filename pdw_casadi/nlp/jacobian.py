@@ -46,7 +46,7 @@ class StructuredJacobian:
     :class:`~pdw_casadi.nlp.shooting.ShootingNLP` unknowns ``nlp.w``) by the chain rule above.
 
     :attr:`sparsity` is the fixed (structural) pattern; :meth:`values` its nonzeros at a
-    point; :meth:`function` a CasADi function x -> dg/dx for nlpsol.
+    point; :meth:`function` a CasADi function (x, p) -> dg/dx for nlpsol.
     """
 
     def __init__(self, nlp, g: ca.MX, x: ca.MX, workers: int | None = None,
@@ -62,9 +62,9 @@ class StructuredJacobian:
         SY = [ca.MX.sym(f"S_Y{k}", *Y.shape) for k, Y in enumerate(nlp.Y)]
         gs = ca.graph_substitute(g, [*nlp.samples, *nlp.Y], SX + SY)
         S = ca.vertcat(*[ca.vec(a) for a in SX + SY])
-        P = ca.MX.sym("p", 0, 1) if params is None else params
-        self.n_p = P.shape[0]
-        G = ca.Function("rows_of_samples", [x, S, P], [gs])
+        p = ca.MX.sym("p", 0, 1) if params is None else params
+        self.n_p = p.shape[0]
+        G = ca.Function("rows_of_samples", [x, S, p], [gs])
         if G.has_free():
             raise ValueError("the rows depend on the samples other than through the NLP's "
                              "intervals")
