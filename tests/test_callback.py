@@ -23,9 +23,7 @@ def _pair(kept: list):
     def into(args, outs):
         outs[0][:] = values(args[0])
 
-    buf = NumericFunction("buf", [ca.Sparsity.dense(3, 1)], [sp_out],
-                          lambda a: [ca.DM(sp_out, values(np.asarray(a[0]).ravel()))],
-                          buffers=into)
+    buf = NumericFunction("buf", [ca.Sparsity.dense(3, 1)], [sp_out], None, buffers=into)
     return dm, buf
 
 
@@ -45,3 +43,16 @@ def test_the_buffer_path_computes_what_the_dm_path_computes_and_its_inputs_are_c
     assert np.array_equal(first, 2 * x)
     assert np.array_equal(kept[-4], 2 * x) and np.array_equal(kept[-1], -2 * x)
     assert v1 == 2 * float(ca.sumsqr(dm(2 * x))) and v2 == 2 * float(ca.sumsqr(dm(-2 * x)))
+
+
+def test_a_numeric_function_takes_one_evaluator():
+    """evaluate or buffers, exactly one: the other would never run (CasADi calls only the
+    buffer path when it exists)."""
+    import pytest
+
+    dense = ca.Sparsity.dense(1, 1)
+    with pytest.raises(ValueError, match="one of them"):
+        NumericFunction("none", [dense], [dense], None)
+    with pytest.raises(ValueError, match="one of them"):
+        NumericFunction("both", [dense], [dense], lambda a: [a[0]],
+                        buffers=lambda args, outs: None)

@@ -19,18 +19,20 @@ from pdw_casadi.engine import interrupt
 class NumericFunction(ca.Callback):
     """``evaluate(list of DM) -> list`` with fixed sparsities, and an optional Jacobian.
 
-    ``buffers(inputs, outputs)``, when given, evaluates instead on CasADi's own nonzero
-    buffers (each a 1-D float64 array of the structural nonzeros, column-major): the
-    outputs are views to write in place, so no DM is built, which for an output of 10^5
-    nonzeros (the fit's constraint Jacobian) saves 10 ms per call; the inputs are copies,
-    which the callee may keep (CasADi reuses its buffers after the call: the stability
-    row keeps its last point's forward sweep, views of its input)."""
+    ``buffers(inputs, outputs)``, given instead of ``evaluate`` (None), evaluates on
+    CasADi's own nonzero buffers (each a 1-D float64 array of the structural nonzeros,
+    column-major): the outputs are views to write in place, so no DM is built, which for
+    an output of 10^5 nonzeros (the fit's constraint Jacobian) saves 10 ms per call; the
+    inputs are copies, which the callee may keep (CasADi reuses its buffers after the
+    call: the stability row keeps its last point's forward sweep, views of its input)."""
 
     def __init__(self, name: str, sparsity_in: Sequence[ca.Sparsity],
-                 sparsity_out: Sequence[ca.Sparsity], evaluate: Callable,
+                 sparsity_out: Sequence[ca.Sparsity], evaluate: Callable | None,
                  jacobian: Callable[[str], ca.Function] | None = None,
                  names_in: Sequence[str] | None = None, names_out: Sequence[str] | None = None,
                  buffers: Callable | None = None):
+        if (evaluate is None) == (buffers is None):
+            raise ValueError(f"{name}: give evaluate or buffers, one of them")
         ca.Callback.__init__(self)
         self._sp_in, self._sp_out = list(sparsity_in), list(sparsity_out)
         self._names_in = list(names_in or [f"i{i}" for i in range(len(self._sp_in))])

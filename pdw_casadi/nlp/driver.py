@@ -130,8 +130,7 @@ def _row_value(row: StabilityRow, n: int, n_w: int, cap: list | None,
         outs[0][0] = capped(row.value(args[0][:n_w]), cap)
 
     return NumericFunction(
-        "stability_row", [dense(n, 1)], [dense(1, 1)],
-        lambda a: [capped(row.value(np.asarray(a[0]).ravel()[:n_w]), cap)],
+        "stability_row", [dense(n, 1)], [dense(1, 1)], None,
         lambda name: NumericFunction(
             name, [dense(n, 1), dense(1, 1)], [dense(1, n)],
             lambda a: [ca.horzcat(gradient(a)[0], ca.DM(1, n - n_w))]), buffers=into)
@@ -159,19 +158,13 @@ def _overlapped(x, f, g_base, row: StabilityRow, n_w: int, structured: Structure
     def gradient(a):
         return [ca.DM(row.gradient(np.asarray(a[0]).ravel()[:n_w])).T]
 
-    def nonzeros(xv, pv):
+    def into(args, outs):  # CasADi's own buffers: no DM of the ~10^5 nonzeros (10 ms)
+        xv, pv = args
         pending = side.submit(row.gradient, xv[:n_w])
         base = np.asarray(structured.values(xv, pv), float).ravel()
-        return np.concatenate([base, pending.result()])[order]
+        outs[0][:] = np.concatenate([base, pending.result()])[order]
 
-    def both(a):
-        return [ca.DM(sp, nonzeros(np.asarray(a[0], float).ravel(),
-                                   np.asarray(a[1], float).ravel()))]
-
-    def into(args, outs):  # CasADi's own buffers: no DM of the ~10^5 nonzeros (10 ms)
-        outs[0][:] = nonzeros(args[0], args[1])
-
-    jac = NumericFunction("fit_jac", [dense(n, 1), dense(P.shape[0], 1)], [sp], both,
+    jac = NumericFunction("fit_jac", [dense(n, 1), dense(P.shape[0], 1)], [sp], None,
                           buffers=into)
     value = _row_value(row, n, n_w, cap, gradient)
     g = ca.vertcat(g_base, value(x))

@@ -238,10 +238,9 @@ class StructuredJacobian:
         """(x, p) -> dg/dx as a CasADi function (a Python callback; keep it referenced)."""
         sp = self.sparsity
         dense = ca.Sparsity.dense
+
         def into(args, outs):  # CasADi's own buffers: no DM of every nonzero
             outs[0][:] = self.values(args[0], args[1])
 
-        return NumericFunction(name, [dense(self.n_x, 1), dense(self.n_p, 1)], [sp],
-                               lambda a: [ca.DM(sp, self.values(np.asarray(a[0]),
-                                                                np.asarray(a[1])))],
+        return NumericFunction(name, [dense(self.n_x, 1), dense(self.n_p, 1)], [sp], None,
                                buffers=into)
