@@ -39,10 +39,18 @@ from mkdocs.exceptions import PluginError
 from mkdocs.structure.files import File
 
 MARKER = re.compile(r"^<!-- cli: (pdw-[a-z-]+) -->$", re.MULTILINE)
+#: the widest code line a page shows whole: a code block holds 82 columns in a 1280 px
+#: window with both sidebars (measured with scripts/screenshots.py), the copy button covers
+#: the first line's last two (tests/test_docs.py holds every code block of the site to it)
+CODE_COLUMNS = 80
+#: the language of a notebook's text outputs: wrapped at the page's width (extra.css), not
+#: cut, since a program's output lines are as long as they are
+OUTPUT_LANG = "output"
 
 
 def command_help(command: str) -> str:
-    """The ``--help`` text of console script ``command`` (e.g. ``pdw-fit``), 100 columns."""
+    """The ``--help`` text of console script ``command`` (e.g. ``pdw-fit``), wrapped at
+    :data:`CODE_COLUMNS`."""
     from pdw_casadi.cli import COMMANDS
 
     name = command.removeprefix("pdw-")
@@ -50,7 +58,8 @@ def command_help(command: str) -> str:
         raise PluginError(f"docs: no command {command!r} (commands: {sorted(COMMANDS)})")
     buf = io.StringIO()
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"
+    # argparse wraps at COLUMNS - 2; its usage line breaks at words, not inside them
+    os.environ["COLUMNS"] = str(CODE_COLUMNS + 2)
     try:
         with contextlib.redirect_stdout(buf):
             try:
@@ -437,7 +446,7 @@ def render_notebook(path: Path, config) -> tuple[str, dict[str, bytes]]:
         kind = out.get("output_type")
         if kind == "error":
             trace = out.get("traceback") or [f"{out.get('ename')}: {out.get('evalue')}"]
-            return _fence(_plain("\n".join(trace)), "text")
+            return _fence(_plain("\n".join(trace)), OUTPUT_LANG)
         data = out.get("data", {})
         mime = next((t for t in OUTPUT_ORDER if t in data), None)
         if mime is None:
@@ -448,7 +457,7 @@ def render_notebook(path: Path, config) -> tuple[str, dict[str, bytes]]:
             return data[mime].strip()
         if mime == "text/html":
             return f'<div class="notebook-output">\n{data[mime].strip()}\n</div>'
-        return _fence(_plain(data[mime]), "text")
+        return _fence(_plain(data[mime]), OUTPUT_LANG)
 
     saved = 0
     for n, cell in enumerate(nb.get("cells", []), 1):
@@ -466,19 +475,19 @@ def render_notebook(path: Path, config) -> tuple[str, dict[str, bytes]]:
             saved += 1
             if out.get("output_type") == "stream":
                 if stream and out.get("name") != name:
-                    blocks.append(_fence(_plain("".join(stream)), "text"))
+                    blocks.append(_fence(_plain("".join(stream)), OUTPUT_LANG))
                     stream = []
                 stream.append(out.get("text", ""))
                 name = out.get("name")
                 continue
             if stream:
-                blocks.append(_fence(_plain("".join(stream)), "text"))
+                blocks.append(_fence(_plain("".join(stream)), OUTPUT_LANG))
                 stream = []
             shown = output(n, k, out)
             if shown:
                 blocks.append(shown)
         if stream:
-            blocks.append(_fence(_plain("".join(stream)), "text"))
+            blocks.append(_fence(_plain("".join(stream)), OUTPUT_LANG))
     if saved:
         first = (f"*Rendered from `{rel}` with its saved outputs, as they were when the "
                  "notebook was last run: the site build does not execute it.*")

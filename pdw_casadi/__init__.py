@@ -2,9 +2,10 @@
 
 The API reads like the paper::
 
-    from pdw_casadi import load_problem, simulate, poincare_map, find_fixed_point, fit_gait
-    problem = load_problem("humanlike_6link")      # Tables 1-3, slope 0.1484 rad
-    gait = find_fixed_point(problem)                 # Newton on the exact-AD Poincare map
+    from pdw_casadi import (load_problem, simulate, poincare_map,
+                            find_fixed_point, fit_gait)
+    problem = load_problem("humanlike_6link")  # Tables 1-3, slope 0.1484 rad
+    gait = find_fixed_point(problem)  # Newton on the exact-AD Poincare map
     gait.eigenvalues, gait.spectral_radius, gait.margins
 
 The package is layered; each sub-package imports only the layers below it:

@@ -878,7 +878,8 @@ def test_sweeps_page_the_slope_branch(workdir, checks):
     --num 17 --out sw``: the gait-pattern boundary (centre of pressure at the toe in phase
     I), the fold, and the Neimark-Sacker point where the stable, valid range begins."""
     cmd, = passage("sweeps.md", r"```bash (pdw-sweep [^`]+) ```")
-    args = cmd.split()[1:]
+    # a shell line continuation (" \\" at a line end) is not an argument
+    args = [a for a in cmd.split() if a != "\\"][1:]
     out = workdir / "sw"
     cli("sweep", *args[:args.index("--out")], "--out", out)
     result = read_json(out / "events.json")

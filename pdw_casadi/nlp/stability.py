@@ -7,10 +7,12 @@ h_k = T_k / (N_k M), the segment's ending event g_k = 0 fixing T_k, the impact m
 identity at a mode switch), and after the last segment the leg swap back to the section.
 Its Jacobian J = dP/dxs (ns x ns) is therefore the chain, evaluated at the NLP's nodes:
 
-    Z <- [Phi Z + c_k beta e^T]   per interval (Phi = dX_next/dX, beta = dX_next/dh,
-                                   c_k = 1/(N_k M); Z = [R | b], R = dX/dxs, b = dX/dT_k)
-    R <- (I - b gx / (gx b)) R     at a segment end (gx = dg_k/dx: the saltation projection)
-    R <- D R                       across an impact (D = d impact / dx)
+    Z <- [Phi Z + c_k beta e^T]  per interval (Phi = dX_next/dX,
+                                  beta = dX_next/dh, c_k = 1/(N_k M);
+                                  Z = [R | b], R = dX/dxs, b = dX/dT_k)
+    R <- (I - b gx / (gx b)) R    at a segment end (gx = dg_k/dx:
+                                  the saltation projection)
+    R <- D R                      across an impact (D = d impact / dx)
     J  = d section / dx . D_last R
 
 A stride NLP (two steps, ``step_perms``) runs the chain through both steps' segments, each

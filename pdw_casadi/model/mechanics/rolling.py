@@ -5,8 +5,8 @@ or the heel); its centre is C = point + r u(qf), with u(qf) = (cos qf, sin qf) t
 unit normal pointing into the foot (d(qf) = (sin qf, -cos qf) runs from heel to toe along
 the sole). On the ground (normal n, downhill t) the arc touches at C - r n when
 
-    C . n - r = 0                       (the centre is r above the ground)
-    C . t + r qf = const                (no slip: the centre advances r per radian rolled)
+    C . n - r = 0         (the centre is r above the ground)
+    C . t + r qf = const  (no slip: the centre advances r per radian rolled)
 
 A clockwise roll (qf falling) carries the centre downhill, as a wheel rolling forward. Both
 rows are holonomic; stacked as the world-frame vector C - r n + r qf t (the arc's *rolling
