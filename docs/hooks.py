@@ -172,6 +172,24 @@ def figure_cohort_compliance(root: Path):
     return plot_compliance(_cohort_table(root))
 
 
+#: the stored table of the prosthetist's study of docs/results/prosthesis.md
+#: (scripts/prosthetist_study.py's study.csv; tests/test_results_pages.py holds the page's
+#: table to it)
+PROSTHETIST_STUDY = ("docs", "results", "prosthetist", "study.csv")
+
+
+def figure_prosthetist_study(root: Path):
+    """The prosthetist's study from its stored table (the plotting code of
+    ``scripts/prosthetist_study.py``'s ``study.png``)."""
+    import pandas as pd
+
+    from pdw_casadi.report.prosthetist import plot_prosthetist_study
+
+    return plot_prosthetist_study(pd.read_csv(root.joinpath(*PROSTHETIST_STUDY)),
+                                  title="humanlike_6link fitted to WBDS09's left side, "
+                                        "its right shank and foot made lighter")
+
+
 #: the bundled file's fit, run once per build (:func:`bundled_fit`)
 _FIT_RUN: dict[Path, Path] = {}
 #: the longest the bundled fit may take in a build (s): 30 s from an empty compile cache on
@@ -239,6 +257,14 @@ FIGURES = {
                   "and hip R² the mean of its legs), drawn by the docs build from "
                   "`docs/results/cohort.csv` with `pdw-cohort`'s plotting code "
                   "(`r2_by_subject.png`)."),
+    "prosthetist_study": (figure_prosthetist_study,
+                          "The prosthetist's study: (a) the designed compliance of each leg "
+                          "relative to the fitted sound leg's, (b) each leg's knee and hip "
+                          "R² against the sound side's curves and the spectral radius per "
+                          "step, over the prosthetic leg's mass reduction. Drawn by the docs "
+                          "build from the stored table `docs/results/prosthetist/study.csv` "
+                          "(the study runs for 12 minutes, so the build "
+                          "does not run it)."),
     "cohort_compliance": (figure_cohort_compliance,
                           "The fitted k_knee and k_ankle against body mass: the symmetric fits "
                           "on the subjects' own bodies (the paper-body rows have no body mass, "

@@ -7,6 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from pdw_casadi.gait.design import next_homotopy_step
+from pdw_casadi.studies.prosthesis import STOP_TOL, homotopy_level
 
 
 @given(done=st.floats(0.0, 0.99), nominal=st.floats(1e-3, 0.25), rejections=st.integers(1, 12))
@@ -28,3 +29,36 @@ def test_rejected_steps_try_a_new_point_each_time(done, nominal, rejections):
 def test_accepted_steps_double_up_to_the_largest_step():
     assert next_homotopy_step(0.003, True, 0.1) == 0.006
     assert next_homotopy_step(0.08, True, 0.1) == 0.1
+
+
+@given(first=st.floats(1e-3, 0.05), stops=st.lists(st.floats(0.01, 0.29), max_size=4),
+       outcomes=st.lists(st.booleans(), min_size=60, max_size=60))
+def test_the_mass_homotopy_lands_on_every_stop(first, stops, outcomes):
+    """The design loop's rule (studies/prosthesis.py): whatever solves are accepted or
+    rejected, every accepted point lies on the way to the end, no solve passes a stop it
+    has not reached, and a run that reaches the end has landed on every stop exactly."""
+    lighter, max_step = 0.3, 0.1
+    done, step, path = 0.0, first, [0.0]
+    for ok in outcomes:
+        level, stopped = homotopy_level(done, step, lighter, stops)
+        ahead = [s for s in stops if s > done + STOP_TOL]
+        assert done < level <= lighter
+        assert all(level <= s + STOP_TOL for s in ahead)
+        assert stopped == (level < min(done + step, lighter))
+        step = next_homotopy_step(step if stopped and ok else level - done, ok, max_step)
+        if ok:
+            done = level
+            path.append(level)
+        if done >= lighter or step < 1e-9:
+            break
+    if done >= lighter:
+        assert all(any(abs(p - s) <= STOP_TOL for p in path) for s in stops)
+
+
+def test_a_stop_does_not_shorten_the_next_step():
+    """At 0.09 with the step 0.04 and a stop at 0.1: the solve lands on 0.1 and the next
+    step doubles the 0.04, not the 0.01 the stop left."""
+    level, stopped = homotopy_level(0.09, 0.04, 0.3, (0.1, 0.2))
+    assert (level, stopped) == (0.1, True)
+    assert homotopy_level(0.1, 0.08, 0.3, (0.1, 0.2)) == (0.18, False)
+    assert homotopy_level(0.18, 0.08, 0.3, (0.1, 0.2)) == (0.2, True)

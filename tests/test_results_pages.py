@@ -1074,3 +1074,41 @@ def test_the_defaults_the_pages_quote(checks):
     checks.passage("prosthesis.md", r"\*\*Shortest segment\*\* \(`DesignNLPOptions\.t_min_s`, "
                    r"NUM s\)", d.t_min_s)
     checks.verify()
+
+
+def test_prosthesis_page_the_study_tables_are_the_stored_study(checks):
+    """prosthesis.md, "A prosthetist's study": ``docs/results/prosthetist/study.csv`` (the
+    table ``scripts/prosthetist_study.py`` writes, from which the site build draws the
+    page's figure) holds the page's two tables number for number: per level the per-step
+    radius, validity, asymmetries and both legs' R², and both legs' compliance."""
+    stored = pd.read_csv(RESULTS / "prosthetist" / "study.csv")
+    gait = table("prosthesis.md", "knee R² sound / prosthetic")
+    comp = table("prosthesis.md", "| lighter (%) | leg |")
+    reached = stored[stored["converged"].astype(bool)]
+    assert [r["lighter (%)"] for r in gait] == [f"{v:g}" for v in stored["lighter_pct"]]
+    assert len(comp) == 2 * len(reached)
+    for (_, got), row in zip(stored.iterrows(), gait, strict=True):
+        if not got["converged"]:
+            checks.truth("prosthesis.md", f"{row['lighter (%)']} %: not reached",
+                         row["spectral radius per step"] == "not reached")
+            continue
+        checks.number("prosthesis.md", row["spectral radius per step"], got["step_radius"])
+        checks.truth("prosthesis.md", f"{row['lighter (%)']} %: valid",
+                     row["valid"] == ("yes" if got["valid"] else "no"))
+        pairs = [("step length / time asymmetry (%)", "step_length_asymmetry_pct",
+                  "step_time_asymmetry_pct"),
+                 ("knee R² sound / prosthetic", "r2_knee_left", "r2_knee_right"),
+                 ("hip R² sound / prosthetic", "r2_hip_left", "r2_hip_right")]
+        for head, a, b in pairs:
+            first, second = (v.strip() for v in row[head].split("/"))
+            checks.number("prosthesis.md", first, got[a], what=f"{row['lighter (%)']} % {a}")
+            checks.number("prosthesis.md", second, got[b], what=f"{row['lighter (%)']} % {b}")
+    legs = {"sound": "left", "prosthetic": "right"}
+    rows = [(got, leg) for _, got in reached.iterrows() for leg in ("sound", "prosthetic")]
+    for (got, leg), row in zip(rows, comp, strict=True):
+        checks.truth("prosthesis.md", f"compliance row {row['lighter (%)']} {row['leg']}",
+                     row["lighter (%)"] == f"{got['lighter_pct']:g}" and row["leg"] == leg)
+        for key in [k for k in row if k not in ("lighter (%)", "leg")]:
+            checks.number("prosthesis.md", row[key], got[f"{legs[leg]}.{key}"],
+                          what=f"{row['lighter (%)']} % {leg} {key}")
+    checks.verify()

@@ -207,6 +207,41 @@ def test_design_nlp_accepts_only_verified_answers(base):
             _design_checks(base, res, lighter)
 
 
+@pytest.mark.slow  # two NLP solves of 20 iterations
+def test_a_design_solve_stopped_short_answers_with_its_best_feasible_iterate(base):
+    """The fit's walk in the design (DesignNLPOptions.keep_best_feasible): a solve stopped
+    at its iteration limit answers with its lowest-objective iterate that holds every row
+    and bound (within IPOPT's tolerance), not with its last iterate; without it, with the
+    last iterate."""
+    from pdw_casadi.model.system import physical_parameter_names, physical_parameter_vector
+    from pdw_casadi.nlp.driver import IPOPT_TOL
+    from pdw_casadi.studies.prosthesis import LIGHTER_KEYS, NLP_FREE, ProsthesisDesignSolver
+
+    x = find_stride_fixed_point(base).state
+    target = prosthetic_problem(base, 0.003)
+    names = list(physical_parameter_names(base))
+    theta = physical_parameter_vector(base)
+    keys = [f"right.{k}" for k in NLP_FREE]
+    body = [f"right.{k}" for k in LIGHTER_KEYS]
+    nlp = ShootingNLP.stride(target, x, theta, free=(*keys, *body), sample_stride=2)
+    theta_t = physical_parameter_vector(target)
+    pinned = {k: float(theta_t[names.index(k)]) for k in body}
+    sound = {k: float(theta[names.index(k.replace("right.", "left."))]) for k in keys}
+    answers = {}
+    for keep in (True, False):
+        opts = DesignNLPOptions(max_iter=20, keep_best_feasible=keep, stall=None)
+        solver = ProsthesisDesignSolver(nlp, keys, sound, opts, pinned, log=None)
+        out = solver.solve(nlp.w0)
+        assert out["status"] == "Maximum_Iterations_Exceeded"
+        w, g = out["w"], out["g"]
+        worst = max(np.max(np.r_[solver.lbg - g, g - solver.ubg, 0.0]),
+                    np.max(np.r_[solver.lbx - w, w - solver.ubx, 0.0]))
+        answers[keep] = (out, worst)
+    out, worst = answers[True]
+    assert out["fallback_iteration"] is not None and worst <= IPOPT_TOL
+    assert answers[False][0]["fallback_iteration"] is None
+
+
 def test_sound_problem_undoes_prosthetic_problem(base):
     """A prosthetic walker's sound problem is the symmetric walker it was made from (every
     body and compliance value of both legs) with the mass reduction it carries; a walker

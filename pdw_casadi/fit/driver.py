@@ -17,7 +17,6 @@ from pdw_casadi.gait.timing import human_timing, phase_contacts
 from pdw_casadi.nlp.driver import (
     FeasibleIterate,
     Progress,
-    Stall,
     ipopt_settings,
     nlp_functions,
     succeeded,
@@ -286,10 +285,7 @@ class FitSolver:
                             feasible_tol=opts.tol if opts.keep_best_feasible else None,
                             ratchet=ratchet, near_tol=opts.polish_infeasibility,
                             near_keep=opts.polish_keep,
-                            stall=None if opts.stall_window is None else Stall(
-                                opts.stall_window, opts.stall_rtol, opts.stall_infeasibility,
-                                plateau_infeasibility=opts.stall_plateau_infeasibility,
-                                wander=opts.stall_wander))
+                            stall=opts.stall_rule())
         solver = ca.nlpsol("pdw_fit", "ipopt", self.nlp_fun,
                            {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
                             "jac_g": self.jac_g,

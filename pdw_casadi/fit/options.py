@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from pdw_casadi.gait.stability import MAX_RADIUS, RADIUS_MARGIN, map_radius
 from pdw_casadi.model.gait_data import SIDES
-from pdw_casadi.nlp.driver import IPOPT_TOL
+from pdw_casadi.nlp.driver import IPOPT_TOL, Stall
 from pdw_casadi.nlp.multipliers import WARM_IPOPT
 
 #: the settings of the per-leg fit only (a one-step fit ignores them)
@@ -195,6 +195,15 @@ class FitOptions:
         if self.side not in SIDES:
             raise ValueError(f"side must be 'both', 'left' or 'right', got {self.side!r}")
         return (self.side,)
+
+    def stall_rule(self) -> Stall | None:
+        """The stall rule of these settings (``stall_*``; None: ``stall_window`` None), for
+        every solve that walks like the fit's (the fit's, the prosthesis design's)."""
+        if self.stall_window is None:
+            return None
+        return Stall(self.stall_window, self.stall_rtol, self.stall_infeasibility,
+                     plateau_infeasibility=self.stall_plateau_infeasibility,
+                     wander=self.stall_wander)
 
     def radius_bound(self, steps: int = 1) -> float:
         """The NLP's stability-row bound on the map of ``steps`` steps: the per-step bound

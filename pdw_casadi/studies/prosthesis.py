@@ -46,6 +46,7 @@ import numpy as np
 
 from pdw_casadi.engine import interrupt
 from pdw_casadi.engine.resources import bundled_dir
+from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.gait.design import (
     DesignOptions,
     combined,
@@ -92,6 +93,21 @@ def prosthetic_problem(problem: Problem, lighter: float = 0.3, side: str = "righ
     return problem.replace(legs=legs)
 
 
+#: two mass reductions closer than this (-) are the same point of a design's path
+STOP_TOL = 1e-9
+
+
+def homotopy_level(done: float, step: float, lighter: float,
+                   stops: Sequence[float] = ()) -> tuple[float, bool]:
+    """The mass reduction (-) of the homotopy's next solve after the accepted ``done`` with
+    the step ``step``: ``done + step``, but never past ``lighter`` nor past the next of
+    ``stops`` ahead (:attr:`DesignNLPOptions.stops`), and whether a stop cut it short."""
+    level = min(done + step, lighter)
+    # the tolerance: a stop reached is not a stop ahead
+    ahead = [float(v) for v in stops if done + STOP_TOL < v < level]
+    return min(ahead, default=level), bool(ahead)
+
+
 @dataclass
 class ProsthesisResult:
     """The designed walker: ``problem`` (prosthetic leg, designed compliance, the gait's
@@ -117,6 +133,19 @@ class ProsthesisResult:
     def step_radius(self) -> float:
         """sqrt of the stride map's spectral radius: the per-step equivalent (-)."""
         return math.sqrt(self.fixed_point.spectral_radius)
+
+    def design_at(self, lighter: float, side: str = "right") -> tuple[Problem, np.ndarray]:
+        """The designed walker at an accepted point ``lighter`` (-) of the homotopy's
+        ``path`` (a stop of :attr:`DesignNLPOptions.stops`, or any point it reached) and its
+        stride gait's section state; KeyError if the path has no point there."""
+        for level, x, theta in self.path:
+            if abs(level - lighter) <= STOP_TOL:
+                sound, _ = sound_problem(self.problem, side)
+                walker = with_physical_parameters(prosthetic_problem(sound, level, side), theta)
+                return walker.replace(initial_state=dict(zip(walker.initial_state, x,
+                                                             strict=True))), np.asarray(x)
+        raise KeyError(f"the design's path has no point at {100 * lighter:g} % lighter "
+                       f"(points: {', '.join(f'{100 * v:g}' for v, _, _ in self.path)} %)")
 
 
 def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str = "right",
@@ -262,6 +291,21 @@ class DesignNLPOptions:
     #: IPOPT inf_pr / inf_du trend
     diagnose: bool = False
     ipopt: dict = field(default_factory=dict)
+    #: the fit's walk carried to the design's solves (the same code: the driver's
+    #: :class:`~pdw_casadi.nlp.driver.Progress`): a solve that stops short of convergence
+    #: answers with its best iterate that holds every row and bound (the lowest
+    #: least-change objective among them) instead of its last one, which may have wandered
+    #: off the valid gaits; False: the last iterate
+    keep_best_feasible: bool = True
+    #: a solve is stopped as stalled by the fit's stall rule
+    #: (:meth:`~pdw_casadi.fit.FitOptions.stall_rule` of these settings; None: never)
+    stall: FitOptions | None = field(default_factory=FitOptions)
+    #: mass reductions (fractions, below ``lighter``) that the homotopy lands on exactly on
+    #: its way: each becomes an accepted point of the result's ``path``
+    #: (:meth:`ProsthesisResult.design_at`), so that one run designs the prosthesis at 10,
+    #: 20 and 30 % lighter, say;
+    #: a step cut short by a stop does not shorten the next one
+    stops: tuple = ()
     #: start each homotopy step's NLP from the last accepted step's multipliers, mapped
     #: by row name (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`), with IPOPT's
     #: warm options (:data:`~pdw_casadi.nlp.multipliers.WARM_IPOPT`); False (the default:
@@ -315,6 +359,9 @@ class DesignSolve:
     binding: list = field(default_factory=list)
     #: the homotopy took this answer as its next point
     accepted: bool = False
+    #: the iteration whose iterate is the answer when the solve stopped short
+    #: (DesignNLPOptions.keep_best_feasible; None: IPOPT's own answer)
+    fallback_iteration: int | None = None
 
 
 class ProsthesisDesignSolver:
@@ -385,7 +432,9 @@ class ProsthesisDesignSolver:
         ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol,
                                {**(WARM_IPOPT if warm is not None else {}), **opts.ipopt})
         progress = Progress(self.n_w, self.lbg.size, self.lbg, self.ubg, self.lbx, self.ubx,
-                             lambda x: {}, True, self.log if opts.verbose else None)
+                             lambda x: {}, True, self.log if opts.verbose else None,
+                             feasible_tol=opts.tol if opts.keep_best_feasible else None,
+                             stall=None if opts.stall is None else opts.stall.stall_rule())
         solver = ca.nlpsol("pdw_design", "ipopt", self.nlp_fun,
                            {"ipopt": ipopt, "print_time": False, "iteration_callback": progress,
                             "jac_g": self.jac_g, "show_eval_warnings": False})
@@ -395,13 +444,24 @@ class ProsthesisDesignSolver:
         sol = solver(x0=w0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, **args)
         interrupt.check()  # Ctrl-C inside IPOPT ends the design, not this one solve
         st = solver.stats()
-        w = sol["x"].full().ravel()
+        # IPOPT relaxes bounds by about 1e-8 of their size: a compliance value at its lower
+        # bound 0 comes back as -2.5e-10, which is not a walker (the problem file refuses it)
+        w = np.clip(sol["x"].full().ravel(), self.lbx, self.ubx)
+        success = succeeded(st["return_status"])
+        best = progress.best_feasible
+        # a solve stopped short (its limit, a stall): its best iterate that holds every row
+        fallback = None if success or best is None else best.iteration
+        g = sol["g"].full().ravel()
+        if fallback is not None:
+            w = np.clip(best.x, self.lbx, self.ubx)
+            g = self.nlp_fun(w, np.zeros(0))[1].full().ravel()  # the rows where w is
         hist = st.get("iterations", {})
         return {"w": w, "status": st["return_status"], "iterations":
                 int(st["iter_count"]) if progress.history else 0,  # unset if it never iterated
                 "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
-                "success": succeeded(st["return_status"]),
-                "g": sol["g"].full().ravel(), "lam_g": sol["lam_g"].full().ravel(),
+                "success": success, "fallback_iteration": fallback,
+                "stalled": progress.stalled,
+                "g": g, "lam_g": sol["lam_g"].full().ravel(),
                 "lam_x": sol["lam_x"].full().ravel(),
                 "inf_pr": list(hist.get("inf_pr", [])), "inf_du": list(hist.get("inf_du", []))}
 
@@ -530,7 +590,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     last = None  # the last accepted step's (solver, solve)
     while len(solves) < opts.max_solves:
         done = path[-1][0]
-        level = min(done + step, lighter)
+        level, stopped = homotopy_level(done, step, lighter, opts.stops)
         target = prosthetic_problem(problem, level, side)
         theta_t = physical_parameter_vector(target)
         # built at the last answer (its gait simulates; at the lighter leg with the old
@@ -555,17 +615,21 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             fp.spectral_radius if fp.converged else math.nan,
             report["step_length_asymmetry_pct"] if report else math.nan,
             report["step_time_asymmetry_pct"] if report else math.nan,
-            fp.valid if fp.converged else None, solver.binding(out, top=20)))
+            fp.valid if fp.converged else None, solver.binding(out, top=20),
+            fallback_iteration=out["fallback_iteration"]))
         verified = opts.verified(fp, report)
         good = verified and (out["success"] or opts.accept_verified)
         solves[-1].accepted = good
+        kept = "" if out["fallback_iteration"] is None else \
+            f", its best feasible iterate (iteration {out['fallback_iteration']})"
         log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
-            f"iterations ({out['wall_time_s']:.1f} s); NLP rho32 {out['radius']:.4f}, "
+            f"iterations ({out['wall_time_s']:.1f} s){kept}; NLP rho32 {out['radius']:.4f}, "
             f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "
             f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
             f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
             f"{'accepted' if good else 'rejected'}")
-        step = next_homotopy_step(level - done, good, opts.max_step)
+        step = next_homotopy_step(step if stopped and good else level - done, good,
+                                  opts.max_step)
         if not good:
             if step < opts.min_step:
                 break
