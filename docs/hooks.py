@@ -40,7 +40,7 @@ from mkdocs.structure.files import File
 
 MARKER = re.compile(r"^<!-- cli: (pdw-[a-z-]+) -->$", re.MULTILINE)
 #: the widest code line a page shows whole: a code block holds 82 columns in a 1280 px
-#: window with both sidebars (measured with scripts/screenshots.py), the copy button covers
+#: window with both sidebars (measured with scripts/make_screenshots.py), the copy button covers
 #: the first line's last two (tests/test_docs.py holds every code block of the site to it)
 CODE_COLUMNS = 80
 #: the language of a notebook's text outputs: wrapped at the page's width (extra.css), not
@@ -173,14 +173,14 @@ def figure_cohort_compliance(root: Path):
 
 
 #: the stored table of the prosthetist's study of docs/results/prosthesis.md
-#: (scripts/prosthetist_study.py's study.csv; tests/test_results_pages.py holds the page's
+#: (scripts/make_prosthetist_study.py's study.csv; tests/test_results_pages.py holds the page's
 #: table to it)
 PROSTHETIST_STUDY = ("docs", "results", "prosthetist", "study.csv")
 
 
 def figure_prosthetist_study(root: Path):
     """The prosthetist's study from its stored table (the plotting code of
-    ``scripts/prosthetist_study.py``'s ``study.png``)."""
+    ``scripts/make_prosthetist_study.py``'s ``study.png``)."""
     import pandas as pd
 
     from pdw_casadi.report.prosthetist import plot_prosthetist_study

@@ -1078,7 +1078,7 @@ def test_the_defaults_the_pages_quote(checks):
 
 def test_prosthesis_page_the_study_tables_are_the_stored_study(checks):
     """prosthesis.md, "A prosthetist's study": ``docs/results/prosthetist/study.csv`` (the
-    table ``scripts/prosthetist_study.py`` writes, from which the site build draws the
+    table ``scripts/make_prosthetist_study.py`` writes, from which the site build draws the
     page's figure) holds the page's two tables number for number: per level the per-step
     radius, validity, asymmetries and both legs' R², and both legs' compliance."""
     stored = pd.read_csv(RESULTS / "prosthetist" / "study.csv")

@@ -8,7 +8,7 @@ functions instead of the compiled ones (CasADi differentiates them twice), evalu
 CasADi's virtual machine: seconds per iteration, so the experiment counts iterations, not
 time. Usage: the arguments of `pdw-fit`, e.g.
 
-    python scripts/experiment_exact_hessian.py --gait female_fast.csv --out /tmp/exact
+    python scripts/bench_exact_hessian.py --gait female_fast.csv --out /tmp/exact
 """
 
 from __future__ import annotations

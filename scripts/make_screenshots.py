@@ -7,7 +7,7 @@ or Chrome binary (``--browser``, else the first of chromium, chromium-browser,
 google-chrome on the PATH; on Debian: ``apt-get install chromium``); the site and the
 package do not.
 
-    python scripts/screenshots.py --build --out screenshots
+    python scripts/make_screenshots.py --build --out screenshots
 
 The machine may have no network: the pages' MathJax is loaded from a CDN, so without a
 network the math shows as its TeX source (the page says which).

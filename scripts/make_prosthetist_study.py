@@ -4,7 +4,7 @@ one subject's sound side fitted, the prosthetic leg designed 10, 20 and 30 % lig
 table), ``study.png`` (the figure) and each level's designed walker as a problem file
 into ``--out``.
 
-    python scripts/prosthetist_study.py --sides data/corpus/WBDS09_sides.csv --out study
+    python scripts/make_prosthetist_study.py --sides data/corpus/WBDS09_sides.csv --out study
 """
 
 from __future__ import annotations
