@@ -263,7 +263,7 @@ FIGURES = {
                           "R² against the sound side's curves and the spectral radius per "
                           "step, over the prosthetic leg's mass reduction. Drawn by the docs "
                           "build from the stored table `docs/results/prosthetist/study.csv` "
-                          "(the study runs for 12 minutes, so the build "
+                          "(the study runs for minutes, so the build "
                           "does not run it)."),
     "cohort_compliance": (figure_cohort_compliance,
                           "The fitted k_knee and k_ankle against body mass: the symmetric fits "

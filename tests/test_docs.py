@@ -29,7 +29,8 @@ UP_PATH = re.compile(r"(?<![\w.])((?:\.\./)+[\w.-]+)")
 FIGURE_PAGES = [("", "fit"), ("model", "walker"), ("results/sweeps", "slope_sweep"),
                 ("results/cohort", "cohort_r2"),
                 ("results/cohort", "cohort_compliance"),
-                ("commands/outputs", "fit"), ("commands/outputs", "limit_cycle")]
+                ("commands/outputs", "fit"), ("commands/outputs", "limit_cycle"),
+                ("results/prosthesis", "prosthetist_study")]
 
 
 def _load(path: Path, name: str):

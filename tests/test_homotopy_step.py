@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from pdw_casadi.gait.design import next_homotopy_step
-from pdw_casadi.studies.prosthesis import STOP_TOL, homotopy_level
+from pdw_casadi.studies.prosthesis import STOP_TOL, homotopy_level, homotopy_step_after
 
 
 @given(done=st.floats(0.0, 0.99), nominal=st.floats(1e-3, 0.25), rejections=st.integers(1, 12))
@@ -45,7 +45,7 @@ def test_the_mass_homotopy_lands_on_every_stop(first, stops, outcomes):
         assert done < level <= lighter
         assert all(level <= s + STOP_TOL for s in ahead)
         assert stopped == (level < min(done + step, lighter))
-        step = next_homotopy_step(step if stopped and ok else level - done, ok, max_step)
+        step = homotopy_step_after(step, level - done, stopped, ok, max_step)
         if ok:
             done = level
             path.append(level)
@@ -60,5 +60,8 @@ def test_a_stop_does_not_shorten_the_next_step():
     step doubles the 0.04, not the 0.01 the stop left."""
     level, stopped = homotopy_level(0.09, 0.04, 0.3, (0.1, 0.2))
     assert (level, stopped) == (0.1, True)
+    assert homotopy_step_after(0.04, level - 0.09, stopped, True, 0.1) == 0.08
+    # rejected, the step tried is halved as always
+    assert homotopy_step_after(0.04, level - 0.09, stopped, False, 0.1) == (level - 0.09) / 2
     assert homotopy_level(0.1, 0.08, 0.3, (0.1, 0.2)) == (0.18, False)
     assert homotopy_level(0.18, 0.08, 0.3, (0.1, 0.2)) == (0.2, True)

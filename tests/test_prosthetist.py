@@ -10,6 +10,7 @@ import pytest
 
 from pdw_casadi.model.gait_data import load_side_curves
 from pdw_casadi.model.problem import load_problem
+from pdw_casadi.model.system import physical_parameter_vector
 from pdw_casadi.report.prosthetist import plot_prosthetist_study
 from pdw_casadi.studies.prosthetist import (
     StudyOptions,
@@ -44,5 +45,10 @@ def test_the_study_designs_each_level_and_rereads_its_gait(tmp_path):
         right, left = walker.leg_values("right")[1], walker.leg_values("left")[1]
         assert right["m_s"] == pytest.approx((1 - level) * left["m_s"], rel=1e-12)
         assert np.all(np.isfinite(x))
+    # the last level's walker is the design's answer: the same values, the same gait
+    last, x = study.design.design_at(levels[-1])
+    np.testing.assert_array_equal(physical_parameter_vector(last),
+                                  physical_parameter_vector(study.design.problem))
+    np.testing.assert_array_equal(x, study.design.problem.state_vector())
     fig = plot_prosthetist_study(t, path=tmp_path / "study.png")
     assert len(fig.axes) == 2 and (tmp_path / "study.png").stat().st_size > 0

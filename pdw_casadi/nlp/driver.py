@@ -336,7 +336,11 @@ class Progress(ca.Callback):
         # NaN (a capped stability row) is never feasible: the comparison is False
         if self.feasible_tol is not None and inf <= self.feasible_tol and np.isfinite(g).all() and (
                 self.best_feasible is None or it.objective < self.best_feasible.objective):
-            self.best_feasible = FeasibleIterate(self.iter, it.objective, x.copy(), inf)
+            # with its multipliers: a caller answering with it answers with its duals too
+            self.best_feasible = FeasibleIterate(
+                self.iter, it.objective, x.copy(), inf,
+                np.asarray(d["lam_x"], float).ravel().copy(),
+                np.asarray(d["lam_g"], float).ravel().copy())
         if self.near_tol is not None and self.near_keep > 0 and inf <= self.near_tol and \
                 np.isfinite(g).all():
             self.near.append(FeasibleIterate(

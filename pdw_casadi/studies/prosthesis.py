@@ -108,6 +108,16 @@ def homotopy_level(done: float, step: float, lighter: float,
     return min(ahead, default=level), bool(ahead)
 
 
+def homotopy_step_after(step: float, tried: float, stopped: bool, accepted: bool,
+                        max_step: float) -> float:
+    """The mass homotopy's next step after a solve ``tried`` (-) past the last accepted point,
+    planned as ``step`` and cut short by a stop when ``stopped``:
+    :func:`~pdw_casadi.gait.design.next_homotopy_step` of the step tried, except after an
+    accepted solve that a stop cut short, where the planned step is the one doubled (a stop
+    is a point the user asked for, not a sign that the step was too long)."""
+    return next_homotopy_step(step if stopped and accepted else tried, accepted, max_step)
+
+
 @dataclass
 class ProsthesisResult:
     """The designed walker: ``problem`` (prosthetic leg, designed compliance, the gait's
@@ -138,14 +148,19 @@ class ProsthesisResult:
         """The designed walker at an accepted point ``lighter`` (-) of the homotopy's
         ``path`` (a stop of :attr:`DesignNLPOptions.stops`, or any point it reached) and its
         stride gait's section state; KeyError if the path has no point there."""
-        for level, x, theta in self.path:
+        sound, _ = sound_problem(self.problem, side)
+        levels = []
+        for _, x, theta in self.path:
+            # the point's own masses say how much lighter it is (the continuation's path
+            # counts in its homotopy parameter, the NLP's in the mass reduction)
+            walker = with_physical_parameters(prosthetic_problem(sound, 0.0, side), theta)
+            level = 1.0 - lighter_mass(walker, side)
+            levels.append(level)
             if abs(level - lighter) <= STOP_TOL:
-                sound, _ = sound_problem(self.problem, side)
-                walker = with_physical_parameters(prosthetic_problem(sound, level, side), theta)
                 return walker.replace(initial_state=dict(zip(walker.initial_state, x,
                                                              strict=True))), np.asarray(x)
         raise KeyError(f"the design's path has no point at {100 * lighter:g} % lighter "
-                       f"(points: {', '.join(f'{100 * v:g}' for v, _, _ in self.path)} %)")
+                       f"(points: {', '.join(f'{100 * v:g}' for v in levels)} %)")
 
 
 def design_prosthesis(problem: Problem, x0=None, lighter: float = 0.3, side: str = "right",
@@ -303,8 +318,8 @@ class DesignNLPOptions:
     #: mass reductions (fractions, below ``lighter``) that the homotopy lands on exactly on
     #: its way: each becomes an accepted point of the result's ``path``
     #: (:meth:`ProsthesisResult.design_at`), so that one run designs the prosthesis at 10,
-    #: 20 and 30 % lighter, say;
-    #: a step cut short by a stop does not shorten the next one
+    #: 20 and 30 % lighter, say; a step cut short by a stop does not shorten the next one
+    #: (:func:`homotopy_step_after`)
     stops: tuple = ()
     #: start each homotopy step's NLP from the last accepted step's multipliers, mapped
     #: by row name (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`), with IPOPT's
@@ -445,24 +460,26 @@ class ProsthesisDesignSolver:
         interrupt.check()  # Ctrl-C inside IPOPT ends the design, not this one solve
         st = solver.stats()
         # IPOPT relaxes bounds by about 1e-8 of their size: a compliance value at its lower
-        # bound 0 comes back as -2.5e-10, which is not a walker (the problem file refuses it)
+        # bound 0 comes back slightly negative, which is not a walker (the problem file
+        # refuses it)
         w = np.clip(sol["x"].full().ravel(), self.lbx, self.ubx)
         success = succeeded(st["return_status"])
         best = progress.best_feasible
         # a solve stopped short (its limit, a stall): its best iterate that holds every row
         fallback = None if success or best is None else best.iteration
         g = sol["g"].full().ravel()
-        if fallback is not None:
+        lam_g, lam_x = sol["lam_g"].full().ravel(), sol["lam_x"].full().ravel()
+        if fallback is not None:  # the iterate, its rows and its multipliers
             w = np.clip(best.x, self.lbx, self.ubx)
-            g = self.nlp_fun(w, np.zeros(0))[1].full().ravel()  # the rows where w is
+            g = self.nlp_fun(w, np.zeros(0))[1].full().ravel()
+            lam_g, lam_x = best.lam_g, best.lam_x
         hist = st.get("iterations", {})
         return {"w": w, "status": st["return_status"], "iterations":
                 int(st["iter_count"]) if progress.history else 0,  # unset if it never iterated
                 "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
                 "success": success, "fallback_iteration": fallback,
                 "stalled": progress.stalled,
-                "g": g, "lam_g": sol["lam_g"].full().ravel(),
-                "lam_x": sol["lam_x"].full().ravel(),
+                "g": g, "lam_g": lam_g, "lam_x": lam_x,
                 "inf_pr": list(hist.get("inf_pr", [])), "inf_du": list(hist.get("inf_du", []))}
 
     def row_names(self) -> list[str]:
@@ -587,6 +604,9 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
     fp = report = target = None
     ok = False
     step = min(opts.first_step, lighter)
+    if any(not 0.0 < v < lighter for v in opts.stops):
+        raise ProblemError(f"stops must lie between 0 and lighter = {lighter:g} (fractions, "
+                           f"not %), got {opts.stops}")
     last = None  # the last accepted step's (solver, solve)
     while len(solves) < opts.max_solves:
         done = path[-1][0]
@@ -628,8 +648,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
             f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
             f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
             f"{'accepted' if good else 'rejected'}")
-        step = next_homotopy_step(step if stopped and good else level - done, good,
-                                  opts.max_step)
+        step = homotopy_step_after(step, level - done, stopped, good, opts.max_step)
         if not good:
             if step < opts.min_step:
                 break
