@@ -86,7 +86,9 @@ def _stand_in(calls: list, report: bool = True):
                "step_length_asymmetry_pct": 1e-3, "step_time_asymmetry_pct": 2e-3,
                "double_support_pct": 11.0} if report else None
         solves = [DesignSolve(0.1, "Solve_Succeeded", 12, 1.5, 0.7, 0.6, 0.01, 0.02, True,
-                              [], True)]
+                              [], True),
+                  DesignSolve(0.2, "Maximum_Iterations_Exceeded", 100, 9.0, 0.8, 0.7, 0.02,
+                              0.03, True, [], True, fallback_iteration=87)]
         return ProsthesisResult(prosthetic_problem(problem, 0.2),
                                 SimpleNamespace(spectral_radius=0.64, valid=True), rep,
                                 {"k_ankle": 1.23456}, [(0.0, None, None), (0.2, None, None)],
@@ -106,12 +108,16 @@ def test_run_design_calls_the_method_asked_and_the_report_renders_it(tmp_path):
     assert run.lighter_reached == pytest.approx(0.2)
     head = design_headline(run, "atlas entry x")
     assert head[0] == "start: atlas entry x; target: right shank+foot 20 % lighter; method nlp"
-    assert head[1].startswith("reached 20.00 % lighter in 1 NLP solves: right shank+foot "
+    assert head[1].startswith("reached 20.00 % lighter in 2 NLP solves: right shank+foot "
                               "20.00 % lighter")
     lines = design_gait_lines(run)
     assert lines[0] == "step length L/R 0.50000 / 0.51000 m (asymmetry 1.00e-03 %)"
     assert "prosthetic-leg compliance: k_ankle = 1.2346" in lines
     assert lines[-1].startswith("wall time ")
+    # a solve that stopped short says which iterate it answered with; a success does not
+    solve_lines = [ln for ln in lines if ln.startswith("  NLP ")]
+    assert "best feasible" not in solve_lines[0]
+    assert "(100 iter, 9.0 s; its best feasible iterate, iteration 87)" in solve_lines[1]
     path = write_designed_walker(run, tmp_path / "d.toml")
     assert path.read_text().startswith("# written by pdw-design\n")
     assert load_problem(path).asymmetric  # the lighter leg is in the file

@@ -71,7 +71,10 @@ def design_gait_lines(run: DesignRun) -> list[str]:
             f"{k} = {v:.5g}" for k, v in res.mass_distribution.items()))
     lines.append(f"slope {res.problem.slope:.5f} rad")
     lines += [f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
-              f"{sv.wall_time_s:.1f} s), stride radius {sv.stride_radius:.4f}, "
+              f"{sv.wall_time_s:.1f} s"
+              + ("" if sv.fallback_iteration is None else
+                 f"; its best feasible iterate, iteration {sv.fallback_iteration}")
+              + f"), stride radius {sv.stride_radius:.4f}, "
               f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
               f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "
               f"{'accepted' if sv.accepted else 'rejected'}" for sv in res.solves]
