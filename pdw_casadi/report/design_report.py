@@ -72,8 +72,7 @@ def design_gait_lines(run: DesignRun) -> list[str]:
     lines.append(f"slope {res.problem.slope:.5f} rad")
     lines += [f"  NLP {100 * sv.lighter:6.2f} % lighter: {sv.status} ({sv.iterations} iter, "
               f"{sv.wall_time_s:.1f} s"
-              + ("" if sv.fallback_iteration is None else
-                 f"; its best feasible iterate, iteration {sv.fallback_iteration}")
+              + (sv.answered_with and f"; {sv.answered_with}")
               + f"), stride radius {sv.stride_radius:.4f}, "
               f"asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
               f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}, "

@@ -378,6 +378,13 @@ class DesignSolve:
     #: (DesignNLPOptions.keep_best_feasible; None: IPOPT's own answer)
     fallback_iteration: int | None = None
 
+    @property
+    def answered_with(self) -> str:
+        """Which iterate the answer is, for the progress and report lines: "" (IPOPT's own
+        answer) or "its best feasible iterate, iteration N"."""
+        return "" if self.fallback_iteration is None else \
+            f"its best feasible iterate, iteration {self.fallback_iteration}"
+
 
 class ProsthesisDesignSolver:
     """The design NLP of :func:`design_prosthesis_nlp`: IPOPT on a stride
@@ -478,7 +485,6 @@ class ProsthesisDesignSolver:
                 int(st["iter_count"]) if progress.history else 0,  # unset if it never iterated
                 "wall_time_s": time.perf_counter() - t0, "radius": self.row.value(w),
                 "success": success, "fallback_iteration": fallback,
-                "stalled": progress.stalled,
                 "g": g, "lam_g": lam_g, "lam_x": lam_x,
                 "inf_pr": list(hist.get("inf_pr", [])), "inf_du": list(hist.get("inf_du", []))}
 
@@ -640,8 +646,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         verified = opts.verified(fp, report)
         good = verified and (out["success"] or opts.accept_verified)
         solves[-1].accepted = good
-        kept = "" if out["fallback_iteration"] is None else \
-            f", its best feasible iterate (iteration {out['fallback_iteration']})"
+        kept = solves[-1].answered_with and f", {solves[-1].answered_with}"
         log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
             f"iterations ({out['wall_time_s']:.1f} s){kept}; NLP rho32 {out['radius']:.4f}, "
             f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "

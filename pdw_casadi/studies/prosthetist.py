@@ -74,7 +74,9 @@ class ProsthetistStudy:
     """The study's outcome: the ``fitted`` symmetric walker (the sound leg on both sides)
     and its section state ``state``, the ``design`` run, and ``table``: one row per level
     (0 = the fitted walker) with the stride's verdict, asymmetries, R^2 per leg against the
-    sound side's curves and both legs' compliance (units in the column names); ``wall_time_s``."""
+    sound side's curves and both legs' compliance (``lighter_pct`` and the asymmetries in
+    %, ``speed_m_s`` in m/s, the compliance ``<leg>.<key>`` in the problem file's SI units:
+    N m/rad, N m s/rad, rad); ``wall_time_s`` (s)."""
 
     sides: SideCurves
     fitted: Problem
@@ -101,12 +103,11 @@ def study_row(walker: Problem, x, sides: SideCurves, lighter: float) -> dict:
                step_length_asymmetry_pct=rep["step_length_asymmetry_pct"],
                step_time_asymmetry_pct=rep["step_time_asymmetry_pct"],
                speed_m_s=rep["speed_m_s"])
+    names = list(physical_parameter_names(walker))
     for leg in (SOUND, PROSTHETIC):
         scores = fit_scores(rep["curves"][leg], human)
         row[f"r2_knee_{leg}"] = scores.get("r2_knee", math.nan)
         row[f"r2_hip_{leg}"] = scores.get("r2_hip", math.nan)
-    names = list(physical_parameter_names(walker))
-    for leg in (SOUND, PROSTHETIC):
         for key in NLP_FREE:
             row[f"{leg}.{key}"] = float(fp.parameters[names.index(f"{leg}.{key}")])
     return row
