@@ -18,6 +18,13 @@ R^2 and mean(knee, hip) R^2 above Table 3's. Totals at the end (median and max w
     python scripts/bench_fit.py --corpus --set stability_bound=power   # a FitOptions variant
     python scripts/bench_fit.py --corpus --process   # each file as its own pdw-fit process
 
+A per-side curve file (``--sides``: every per-side file of the corpus) runs the per-leg fit
+on the stride (both legs free) and its row reads the stride's answer: each leg's knee / hip
+R^2, the stride's spectral radius, whether the answer is certified; targets: whole command
+<= 60 s, Solve_Succeeded in every solve, certified, stable, valid, re-simulation < 1e-6.
+
+    python scripts/bench_fit.py --sides [--set 'ipopt={...}']
+
 ``--process``: each file is fitted by its own ``pdw-fit --gait FILE --quiet`` process, as a
 user runs it (warm compile cache); its wall time is the whole process's, start-up and
 imports included, and the rest of the row is read from the ``summary.json`` it writes (the
@@ -42,15 +49,17 @@ import numpy as np
 from pdw_casadi.fit import FitOptions
 from pdw_casadi.gait.fixed_point import find_fixed_point
 from pdw_casadi.gait.stability import RADIUS_BOUND
-from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.model.gait_data import SideCurves, load_gait_file
 from pdw_casadi.model.problem import load_problem
 from pdw_casadi.report.fit_report import write_fit_report
+from pdw_casadi.report.fit_stride_report import write_fit_stride_report
 from pdw_casadi.studies.fit_run import run_fit
 
 ROOT = Path(__file__).resolve().parents[1]
 GOAL_S = 15.0  # whole command, warm, per file (in one process)
 GOAL_PROCESS_S = 20.0  # whole pdw-fit process, warm, per file
 GOAL_MEDIAN_S = 10.0
+GOAL_SIDES_S = 60.0  # a per-leg fit's whole command, warm, per file
 
 
 def corpus_files(sides: bool = False) -> list[str]:
@@ -97,13 +106,40 @@ def bench_one(problem, f: str, overrides: dict, process: bool = False) -> dict:
     if process:
         s, wall = process_summary(f)
         return _row(f, s, wall, GOAL_PROCESS_S)
-    human = load_gait_curves(f)
+    human = load_gait_file(f)
     opts = FitOptions(verbose=False, **overrides)
+    sides = isinstance(human, SideCurves)
+    write = write_fit_stride_report if sides else write_fit_report
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        s = write_fit_report(run_fit(problem, human, opts, log=lambda m: None), Path(tmp))
+        s = write(run_fit(problem, human, opts, log=lambda m: None), Path(tmp))
         wall = time.perf_counter() - t0
-    return _row(f, s, wall, GOAL_S)
+    return _sides_row(f, s, wall) if sides else _row(f, s, wall, GOAL_S)
+
+
+def _sides_row(f: str, s: dict, wall: float) -> dict:
+    """A per-side file's row from its per-leg fit's summary.json ``s`` and the command's
+    wall time (s)."""
+    solver = s["solver"]
+    legs = s.get("legs", {})
+    row = {"file": Path(f).name, "wall_s": wall, "fit_s": solver["wall_time_s"],
+           "status": solver["status"], "statuses": [x["status"] for x in solver["solves"]],
+           "iterations": [x["iterations"] for x in solver["solves"]],
+           **{f"r2_{j}_{leg}": legs.get(leg, {}).get(f"r2_{j}", np.nan)
+              for leg in ("left", "right") for j in ("knee", "hip")},
+           "stride_rho": s.get("stride_spectral_radius", np.nan),
+           "resim": s.get("resimulation_deviation", np.nan),
+           "accepted": bool(s.get("accepted")), "certified": bool(s.get("certified")),
+           "valid": bool(s["valid"]), "stable": bool(s["stable"])}
+    row["checks"] = {
+        "time": wall <= GOAL_SIDES_S,
+        "ipopt": bool(solver["solves"]) and all(x == "Solve_Succeeded"
+                                                 for x in row["statuses"]),
+        "certified": row["certified"],
+        "stable": row["stable"],
+        "valid": row["valid"] and row["resim"] < FitOptions.resim_tol,
+    }
+    return row
 
 
 def _row(f: str, s: dict, wall: float, goal_s: float) -> dict:
@@ -134,6 +170,12 @@ def _row(f: str, s: dict, wall: float, goal_s: float) -> dict:
 def line(r: dict) -> str:
     missed = [k for k, v in r["checks"].items() if not v]
     it = "+".join(str(i) for i in r["iterations"]) or "-"
+    if "stride_rho" in r:  # a per-side file's row
+        return (f"{r['file']:22s} {r['wall_s']:6.1f} {r['fit_s']:6.1f} "
+                f"{str(r['status'])[:16]:16s} {it:>11s} L {r['r2_knee_left']:6.3f} "
+                f"{r['r2_hip_left']:6.3f} R {r['r2_knee_right']:6.3f} {r['r2_hip_right']:6.3f} "
+                f"{r['stride_rho']:6.4f} {r['resim']:8.1e} | "
+                f"{'all met' if not missed else 'missed: ' + ', '.join(missed)}")
     return (f"{r['file']:22s} {r['wall_s']:6.1f} {r['fit_s']:6.1f} {str(r['status'])[:16]:16s} "
             f"{it:>7s} {r['r2_knee']:6.3f} {r['r2_hip']:6.3f} {r['r2_thigh']:6.3f} "
             f"{r['rho']:6.4f} {r['resim']:8.1e} | {r['t3_knee']:6.3f} {r['t3_hip']:6.3f} "
@@ -156,6 +198,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="*")
     ap.add_argument("--corpus", action="store_true", help="the corpus's one-curve files")
+    ap.add_argument("--problem", default="humanlike_6link",
+                    help="the walker (a bundled name or a problem file; not with --process)")
+    ap.add_argument("--sides", action="store_true",
+                    help="the corpus's per-side files (the per-leg fit)")
     ap.add_argument("--only", default="", help="only files whose name contains this")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a FitOptions field (repeatable)")
@@ -166,6 +212,8 @@ def main(argv=None) -> int:
     files = list(args.files)
     if args.corpus:
         files += corpus_files()
+    if args.sides:
+        files += corpus_files(sides=True)
     if not files:
         files = ["female_fast.csv", *sorted(str(p) for p in (ROOT / "data" / "subjects").glob(
             "*_fast.csv"))]
@@ -173,7 +221,9 @@ def main(argv=None) -> int:
     overrides = parse_set(args.set)
     if args.process and overrides:
         raise SystemExit("error: --process measures the command's defaults (no --set)")
-    problem = load_problem("humanlike_6link")
+    if args.process and args.problem != "humanlike_6link":
+        raise SystemExit("error: --process measures the bundled walker's command")
+    problem = load_problem(args.problem)
     if args.process:
         print(f"each file as its own pdw-fit process; load average {os.getloadavg()[0]:.2f}")
     else:
