@@ -18,10 +18,18 @@ number printed as 0.8709 must equal the value rounded to four decimals, one prin
 disagree, in either direction, and when a passage it names is reworded (then the case here
 is updated with the page).
 
-Left out on purpose: wall and CPU times; anything from a fit, a cohort, a design run or a
-benchmark (minutes each); numbers a page gives as history ("before ...", "measured
-before ..."). The toe-foot walker's two sampled scans (about 40 s each) and the heel-radius
-sweep (kept out of the default run to hold it within a minute) are marked slow:
+A page's prose that restates its own tables (the medians, totals, counts and ranges under
+a corpus run's table, a study's changes in %) is checked against those tables, or against
+the stored tables they print (``cohort.csv``, ``prosthetist/study.csv``), at the printed
+digits; where a table's rounding leaves a figure open (a median half way between two rounded
+times, a time printed 10.0 against "above 10 s") either side passes (``Checks.figure``,
+``Checks.tally``).
+
+Left out on purpose: wall and CPU times (but as a table restates them); anything from a
+fit, a cohort, a design run or a benchmark (minutes each); numbers a page gives as history
+("before ...", "measured before ..."). The toe-foot walker's two sampled scans (about 40
+s each) and the heel-radius sweep (kept out of the default run to hold it within a minute)
+are marked slow:
 ``pytest -m slow tests/test_results_pages.py``.
 """
 
@@ -29,11 +37,15 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import importlib.util
 import io
 import json
 import math
 import re
+import statistics
+import sys
 import tomllib
+from decimal import ROUND_HALF_DOWN, ROUND_HALF_EVEN, ROUND_HALF_UP, Decimal
 from pathlib import Path
 
 import numpy as np
@@ -146,6 +158,52 @@ class Checks:
             before = m.string[max(m.start(), m.start(k + 1) - 60):m.start(k + 1)]
             self.number(name, printed, *vals, what=f"number {k + 1} of \"...{before}\"")
 
+    def figure(self, name: str, printed: str, value: Decimal, column: int | None = None,
+               what: str = "") -> None:
+        """A figure the page computes from its own table's printed numbers (a median, a
+        maximum, a sum), ``value``, exact from those numbers, against ``printed``: at the
+        printed decimals, an exact half rounded to even (a median of counts: 32.5 is printed
+        32). ``column``: the decimals of the table's figures when they are rounded
+        measurements (seconds, R²); then the comparison is at the coarser of the two
+        precisions, and a value exactly half way (a median of two rounded times, 14.05)
+        admits both neighbours, which only the unrounded run decides."""
+        self.compared.append((name, printed))
+        p = Decimal(canonical(printed))
+        places = -p.as_tuple().exponent
+        if column is not None:
+            places = min(places, column)
+        q = Decimal(1).scaleb(-places)
+        modes = (ROUND_HALF_EVEN,) if column is None else (ROUND_HALF_UP, ROUND_HALF_DOWN)
+        want = {value.quantize(q, m) for m in modes}
+        got = {p.quantize(q, m) for m in (ROUND_HALF_UP, ROUND_HALF_DOWN)}
+        if not want & got:
+            self.failures.append(f"docs/results/{name}: {what or 'a figure'} printed {printed}, "
+                                 f"its table gives {value}")
+
+    def tally(self, name: str, printed: str, outcomes: list, what: str = "") -> None:
+        """A count the page prints against one outcome per table row: True, False, or None
+        when the row's printed digits do not decide it (a time printed 10.0 against "above
+        10 s", a knee R² printed equal to Table 3's against "above"). ``printed`` must lie
+        between the rows certainly counted and those possibly counted; exact when every row
+        is decided."""
+        self.compared.append((name, printed))
+        sure = sum(o is True for o in outcomes)
+        possible = sure + sum(o is None for o in outcomes)
+        if not sure <= int(printed) <= possible:
+            span = f"{sure}" if sure == possible else f"{sure} to {possible}"
+            self.failures.append(f"docs/results/{name}: {what or 'a count'} printed {printed}, "
+                                 f"its table gives {span}")
+
+    def bound(self, name: str, printed: str, cells: list[str], what: str = "") -> None:
+        """A bound the page states of a table column ("re-simulation < 5e-7"): no printed
+        cell is certainly above it."""
+        self.compared.append((name, printed))
+        top = Decimal(canonical(printed))
+        over = [c for c in cells if exceeds(span(c), (top, top)) is True]
+        if over:
+            self.failures.append(f"docs/results/{name}: {what or 'a bound'} printed {printed}, "
+                                 f"its table has {over}")
+
     def truth(self, name: str, what: str, ok: bool) -> None:
         """A fact the page states in words (valid, stable, a failure's name)."""
         if not ok:
@@ -153,6 +211,40 @@ class Checks:
 
     def verify(self) -> None:
         assert not self.failures, "\n".join(self.failures)
+
+
+def span(text: str) -> tuple[Decimal, Decimal]:
+    """The values a printed number stands for: half a unit of its last digit either side."""
+    v = Decimal(canonical(text))
+    h = Decimal(1).scaleb(v.as_tuple().exponent) / 2
+    return v - h, v + h
+
+
+def plus(*spans: tuple[Decimal, Decimal]) -> tuple[Decimal, Decimal]:
+    return sum(s[0] for s in spans), sum(s[1] for s in spans)
+
+
+def exceeds(a: tuple[Decimal, Decimal], b: tuple[Decimal, Decimal]) -> bool | None:
+    """Whether a value in span ``a`` is above one in span ``b`` (at or above: the same, but
+    for a tie of measure zero); None when the spans overlap, the printed digits undecided."""
+    if a[0] >= b[1]:
+        return True
+    if a[1] <= b[0]:
+        return False
+    return None
+
+
+def within(cell: str, limit: float) -> bool | None:
+    """A printed time at most ``limit`` (None: its digits do not decide)."""
+    over = exceeds(span(cell), (Decimal(str(limit)),) * 2)
+    return None if over is None else not over
+
+
+def decimals(cells: list[str]) -> int:
+    """The decimals the table prints a column's figures with."""
+    places = {-Decimal(c).as_tuple().exponent for c in cells}
+    assert len(places) == 1, f"a column printed with {places} decimals"
+    return places.pop()
 
 
 @pytest.fixture
@@ -1111,4 +1203,682 @@ def test_prosthesis_page_the_study_tables_are_the_stored_study(checks):
         for key in [k for k in row if k not in ("lighter (%)", "leg")]:
             checks.number("prosthesis.md", row[key], got[f"{legs[leg]}.{key}"],
                           what=f"{row['lighter (%)']} % {leg} {key}")
+    checks.verify()
+
+
+def test_prosthesis_page_the_study_in_prose(checks):
+    """prosthesis.md, "A prosthetist's study": the prose's figures from
+    ``docs/results/prosthetist/study.csv`` (left = sound, right = prosthetic): the fitted
+    walker's R² and radius, the levels, the radii and asymmetries that run out, the legs'
+    R² ranges (the prosthetic leg's over the lighter levels: at 0 % it is the sound leg),
+    the changes up to 20 % and the gait at 30 %. The changes (%) are relative to the fitted
+    walker, the 0 % row, which is both legs' (the page's figures come out of that base and
+    not of the previous level: prosthetic c_knee_flex at 20 % is +38 % of the 0 % row,
+    +25 % of the 10 % row)."""
+    from pdw_casadi.studies.prosthetist import StudyOptions, study_design_options
+
+    study = pd.read_csv(RESULTS / "prosthetist" / "study.csv").set_index("lighter_pct")
+    at = study.loc
+    name = "prosthesis.md"
+    design = study_design_options()
+    levels = [100 * v for v in StudyOptions().levels]
+    checks.truth(name, "the study's levels are the stored table's",
+                 list(study.index) == [0.0, *levels])
+    checks.truth(name, "every level reached, stable and valid",
+                 bool(study["converged"].all() and study["valid"].all()
+                      and (study["stride_radius"] < 1).all()))
+    checks.truth(name, "the fitted walker is symmetric: both legs the sound leg",
+                 all(at[0, f"left.{k}"] == at[0, f"right.{k}"] for k in KEYS))
+    checks.passage(name, r"\(the one-step fit: \d+ iterations, knee / hip R² NUM / NUM, "
+                   r"spectral radius NUM\)", at[0, "r2_knee_left"], at[0, "r2_hip_left"],
+                   at[0, "step_radius"])
+    checks.passage(name, r"asymmetries up to NUM %\) whose mass homotopy stops at NUM and NUM "
+                   r"% on its way to NUM %", design.symmetry_tol_pct, *levels)
+    tol = design.symmetry_tol_pct
+    checks.passage(
+        name, r"The spectral radius per step climbs from NUM to NUM at NUM % and reaches the "
+        r"design's bound \(stride radius NUM, NUM per step\) at NUM % \(NUM at NUM %\); the "
+        r"step-time asymmetry uses NUM of its NUM % tolerance at NUM %",
+        at[0, "step_radius"], at[10, "step_radius"], 10,
+        (design.max_stride_radius - design.radius_margin, at[20, "stride_radius"]),
+        at[20, "step_radius"], 20, at[30, "step_radius"], 30,
+        abs(at[10, "step_time_asymmetry_pct"]), tol, 10)
+    checks.truth(name, "the step-time asymmetry uses all of its tolerance from 20 % on",
+                 all(round(abs(at[p, "step_time_asymmetry_pct"]), 3) == tol for p in (20, 30)))
+    lighter = study[study.index > 0]
+    checks.passage(
+        name, r"The sound leg's knee R² stays at NUM-NUM while its hip R² falls from NUM to "
+        r"NUM at NUM %; .*? \(knee NUM-NUM, hip NUM-NUM\)",
+        study["r2_knee_left"].min(), study["r2_knee_left"].max(), at[0, "r2_hip_left"],
+        at[30, "r2_hip_left"], 30, lighter["r2_knee_right"].min(),
+        lighter["r2_knee_right"].max(), lighter["r2_hip_right"].min(),
+        lighter["r2_hip_right"].max())
+    r2 = study.filter(like="r2_").round(3)  # as the page's table prints them
+    checks.truth(name, "the prosthetic leg fits the sound side as well as or better than the "
+                 "sound leg at every level",
+                 bool((r2["r2_knee_right"] >= r2["r2_knee_left"]).all()
+                      and (r2["r2_hip_right"] >= r2["r2_hip_left"]).all()))
+
+    def change(level, leg, key):
+        return 100 * (at[level, f"{leg}.{key}"] / at[0, f"{leg}.{key}"] - 1)
+
+    bound, = passage(name, r"k_ankle, c_ankle and k_knee of both legs within NUM % of the "
+                     r"fitted values")
+    moved = max(abs(change(p, leg, k)) for p in (10, 20) for leg in ("left", "right")
+                for k in ("k_ankle", "c_ankle", "k_knee"))
+    checks.truth(name, f"up to 20 % k_ankle, c_ankle, k_knee move {moved:.2f} %, within "
+                 f"{bound} %", moved <= float(bound))
+    checks.passage(
+        name, r"\(prosthetic `c_knee_flex` NUM %, `c_knee_ext` NUM %, `c_knee_stance` NUM %; "
+        r"sound `c_knee_flex` NUM %, `c_knee_stance` NUM %\) and the knee springs' release "
+        r"angles \(sound theta_eq NUM % and theta_dis NUM %, prosthetic theta_dis NUM %\)",
+        change(20, "right", "c_knee_flex"), change(20, "right", "c_knee_ext"),
+        change(20, "right", "c_knee_stance"), change(20, "left", "c_knee_flex"),
+        change(20, "left", "c_knee_stance"), change(20, "left", "theta_eq"),
+        change(20, "left", "theta_dis"), change(20, "right", "theta_dis"))
+    flex = [at[30, f"{leg}.c_knee_flex"] / at[0, f"{leg}.c_knee_flex"]
+            for leg in ("left", "right")]
+    checks.passage(
+        name, r"\(k_ankle NUM and NUM against NUM N m/rad\), the knees' flexion damping "
+        r"NUM-NUM times the fitted one .*? \(theta_eq NUM, theta_dis NUM rad, its lower bound\)",
+        at[30, "left.k_ankle"], at[30, "right.k_ankle"],
+        (at[0, "left.k_ankle"], at[0, "right.k_ankle"]), min(flex), max(flex),
+        at[30, "left.theta_eq"], at[30, "left.theta_dis"])
+    problem = tomllib.loads((ROOT / "problems" / "humanlike_6link.toml").read_text("utf-8"))
+    lower = problem["compliance_bounds"]["theta_dis"][0]
+    checks.truth(name, "the sound knee's theta_dis at 30 % is on its lower bound",
+                 round(at[30, "left.theta_dis"] - lower, 4) == 0)
+    checks.verify()
+
+
+# -- fit.md, performance.md: the corpus runs' totals restate their tables ----------------------
+class Run:
+    """A corpus run's table on fit.md (one row per file), its columns as the page prints
+    them: the wall times, the iterations (a restart's ``39+27``: their sum), the statuses,
+    the answers' rho, re-simulation and R² (the rows with an answer)."""
+
+    def __init__(self, rows: list[dict[str, str]], wall: str = "whole command s"):
+        self.rows = rows
+        self.by = {r["file"].split(" ")[0]: r for r in rows}
+        self.wall = [r[wall] for r in rows]
+        self.wall_places = decimals(self.wall)
+        self.iterations = [sum(map(int, r["iterations"].split("+"))) for r in rows]
+        self.status = [r["status"] for r in rows]
+        self.done = [r for r in rows if r["knee"] not in ("-", "nan")]
+        self.rho = [r["rho"] for r in self.done]
+        self.resim = [r["re-sim"] for r in self.done]
+
+    def median_wall(self) -> Decimal:
+        return statistics.median(Decimal(w) for w in self.wall)
+
+    def median_iterations(self) -> Decimal:
+        return statistics.median(Decimal(n) for n in self.iterations)
+
+    def total_wall(self) -> Decimal:
+        return sum(Decimal(w) for w in self.wall)
+
+    def within(self, limit: float) -> list[bool | None]:
+        return [within(w, limit) for w in self.wall]
+
+    def above_table_3(self, mean: bool = False) -> list[bool | None]:
+        """Per answer: its knee R² (``mean``: the mean of knee and hip) above Table 3's."""
+        out = []
+        for r in self.done:
+            knee, hip = numbers(r["Table 3 knee / hip"])
+            if mean:
+                out.append(exceeds(plus(span(r["knee"]), span(r["hip"])),
+                                   plus(span(knee), span(hip))))
+            else:
+                out.append(exceeds(span(r["knee"]), span(knee)))
+        return out
+
+
+def _runs() -> dict[str, Run]:
+    """fit.md's corpus tables by the run they are of."""
+    return {"before": Run(table("fit.md", "missed (besides time)", 0), "wall s"),
+            "floor": Run(table("fit.md", "missed (besides time)", 2), "wall s"),
+            "cap": Run(table("fit.md", "| wall s | fit s |"), "wall s"),
+            "power": Run(table("fit.md", "e0f3ace (schur)"), "wall s"),
+            "process": Run(table("fit.md", "whole command s | status | iterations |", 0)),
+            "rows": Run(table("fit.md", "whole command s | status | iterations |", 1)),
+            "zigzag": Run(table("fit.md", "whole command s | status | iterations |", 2))}
+
+
+def _run_figures(checks: Checks, name: str, run: Run, printed: dict[str, str]) -> None:
+    """The figures of ``run`` that a sentence prints, by kind: ``median`` / ``max`` /
+    ``min`` / ``total`` wall time, ``iterations`` median, ``most`` / ``fewest`` iterations,
+    ``rho_min`` / ``rho_max``, ``within_<s>`` counts, ``resim`` bound."""
+    w = run.wall_places
+    walls = [Decimal(x) for x in run.wall]
+    rho = [Decimal(x) for x in run.rho]
+    for kind, text in printed.items():
+        what = f"{kind} of the table"
+        if kind == "median":
+            checks.figure(name, text, run.median_wall(), w, what)
+        elif kind == "max":
+            checks.figure(name, text, max(walls), w, what)
+        elif kind == "min":
+            checks.figure(name, text, min(walls), w, what)
+        elif kind == "total":
+            checks.figure(name, text, run.total_wall(), w, what)
+        elif kind == "iterations":
+            checks.figure(name, text, run.median_iterations(), what=what)
+        elif kind == "most":
+            checks.figure(name, text, Decimal(max(run.iterations)), what=what)
+        elif kind == "fewest":
+            checks.figure(name, text, Decimal(min(run.iterations)), what=what)
+        elif kind == "rho_min":
+            checks.figure(name, text, min(rho), decimals(run.rho), what)
+        elif kind == "rho_max":
+            checks.figure(name, text, max(rho), decimals(run.rho), what)
+        elif kind.startswith("within_"):
+            checks.tally(name, text, run.within(float(kind[7:])), what)
+        elif kind == "resim":
+            checks.bound(name, text, run.resim, what)
+        else:
+            raise AssertionError(kind)
+
+
+def _sentence(checks: Checks, name: str, run: Run, pattern: str, *kinds: str) -> tuple:
+    """The numbers of ``pattern``'s groups against ``run``'s figures of ``kinds`` (one per
+    group; "" skips a group); the groups."""
+    groups = passage(name, pattern)
+    assert len(groups) == len(kinds), pattern
+    _run_figures(checks, name, run, {k: g for k, g in zip(kinds, groups, strict=True) if k})
+    return groups
+
+
+def test_fit_page_the_loaded_corpus_runs_totals(checks):
+    """fit.md: the totals under the corpus tables of the loaded machine (before, with the
+    knee floor, the cap, the eight-step bound): counts of statuses, stable and valid
+    answers, knee and mean R² above Table 3, the wall times' median, maximum and total, the
+    iterations' median, the radii, from the table above each (a restart's iterations
+    summed; a count the printed digits leave open, such as a knee printed equal to Table
+    3's against "above", may go either way)."""
+    runs = _runs()
+    name = "fit.md"
+    run = runs["before"]
+    n, ok, good, resim, knee, mean, med, top = passage(
+        name, r"Totals \(NUM files\): NUM Solve_Succeeded, NUM stable and valid "
+        r"\(re-simulation < NUM\), knee \$R\^2\$ above Table 3 on NUM, mean\(knee, hip\) above "
+        r"Table 3 on NUM; no file within 15 s \(median NUM s, max NUM s, on the loaded")
+    missed = [r["missed (besides time)"] for r in run.done]
+    checks.number(name, n, len(run.rows), what="files")
+    checks.number(name, ok, run.status.count("Solve_Succeeded"), what="Solve_Succeeded")
+    checks.number(name, good, sum("stable" not in m and "valid" not in m for m in missed),
+                  what="stable and valid")
+    checks.tally(name, knee, run.above_table_3(), what="knee above Table 3")
+    checks.tally(name, mean, run.above_table_3(mean=True), what="mean above Table 3")
+    _run_figures(checks, name, run, {"resim": resim, "median": med, "max": top})
+    checks.truth(name, "no file within 15 s", not any(run.within(15)))
+    checks.truth(name, "both failures are the late deformation",
+                 [r["file"] for r in run.rows if r["knee"] == "-"]
+                 == ["WBDS09_late", "WBDS10_late"])
+
+    run = runs["floor"]
+    n, ok, acceptable = passage(name, r"Totals \(NUM files\): NUM Solve_Succeeded and one "
+                                r"Solved_To_Acceptable_Level \((\w+-?),")
+    checks.number(name, n, len(run.rows), what="files")
+    checks.number(name, ok, run.status.count("Solve_Succeeded"), what="Solve_Succeeded")
+    checks.truth(name, f"{acceptable} the one Solved_To_Acceptable_Level",
+                 [r["file"] for r in run.rows if r["status"] == "Solved_To_Acceptable_Level"]
+                 == [acceptable])
+    stable, rho, valid, first, second = passage(
+        name, r"all NUM stable \(rho <= NUM\); NUM valid \((\S+) and (\S+) miss a "
+        r"centre-of-pressure margin")
+    checks.number(name, stable, sum(Decimal(r) < 1 for r in run.rho), what="stable")
+    _run_figures(checks, name, run, {"rho_max": rho})
+    invalid = [r["file"] for r in run.done if "valid" in r["missed (besides time)"]]
+    checks.number(name, valid, len(run.done) - len(invalid), what="valid")
+    checks.truth(name, f"{first} and {second} invalid", invalid == [first, second])
+    resim, knee, mean = passage(name, r"re-simulation < NUM on all; knee R² at or above Table "
+                                r"3's on all NUM .*?; mean\(knee, hip\) above Table 3's on all "
+                                r"NUM\. WBDS10_late")
+    _run_figures(checks, name, run, {"resim": resim})
+    checks.tally(name, knee, run.above_table_3(), what="knee at or above Table 3")
+    checks.tally(name, mean, run.above_table_3(mean=True), what="mean above Table 3")
+    checks.passage(name, r"WBDS10_late, at the iteration limit before the two stability rules, "
+                   r"converges in NUM iterations", run.iterations[
+                       [r["file"] for r in run.rows].index("WBDS10_late")])
+    _sentence(checks, name, run, r"No file within 15 s \(median NUM s on the loaded", "median")
+    checks.truth(name, "no file within 15 s (the knee floor)", not any(run.within(15)))
+    before = runs["before"]
+    checks.passage(name, r"WBDS09_hip\+ NUM → NUM \(Table 3 [\d.]+\), WBDS18_early NUM → NUM "
+                   r"\([\d.]+\), WBDS18_hip\+ NUM → NUM \(",
+                   *(float(r.by[f]["knee"]) for f in ("WBDS09_hip+", "WBDS18_early",
+                                                      "WBDS18_hip+") for r in (before, run)))
+
+    run = runs["cap"]
+    groups = passage(
+        name, r"Totals \(NUM files\): NUM Solve_Succeeded, all NUM stable \(rho <= NUM\), "
+        r"valid, re-simulation < NUM; knee R² above Table 3's on NUM \((\S+) ends on its knee "
+        r"floor, equal to Table 3's NUM\), mean\(knee, hip\) above Table 3's on all NUM; two "
+        r"files at the iteration limit \((\S+), (\S+)\); no file within 15 s \(median NUM s, "
+        r"total NUM s on the loaded machine; iterations median NUM\)")
+    n, ok, stable, rho, resim, knee, floor, t3, mean, lim1, lim2, med, total, its = groups
+    checks.number(name, n, len(run.rows), what="files")
+    checks.number(name, ok, run.status.count("Solve_Succeeded"), what="Solve_Succeeded")
+    checks.number(name, stable, sum(Decimal(r) < 1 for r in run.rho), what="stable")
+    checks.tally(name, knee, run.above_table_3(), what="knee above Table 3")
+    checks.number(name, t3, float(numbers(run.by[floor]["Table 3 knee / hip"])[0]))
+    checks.truth(name, f"{floor}'s knee equals Table 3's",
+                 run.by[floor]["knee"] == numbers(run.by[floor]["Table 3 knee / hip"])[0])
+    checks.tally(name, mean, run.above_table_3(mean=True), what="mean above Table 3")
+    checks.truth(name, f"{lim1}, {lim2} at the iteration limit",
+                 [r["file"] for r in run.rows if r["status"] == "Maximum_Iterations_Exceeded"]
+                 == [lim1, lim2])
+    _run_figures(checks, name, run, {"rho_max": rho, "resim": resim, "median": med,
+                                     "total": total, "iterations": its})
+    checks.truth(name, "no file within 15 s (the cap)", not any(run.within(15)))
+
+    run, cap = runs["power"], runs["cap"]
+    groups = passage(
+        name, r"Totals \(NUM files\): \*\*NUM Solve_Succeeded\*\* \(e0f3ace: NUM, two at the "
+        r"iteration limit\), all stable \(rho NUM-NUM: .*?\), valid, re-simulation < NUM "
+        r"\(e0f3ace: up to NUM\); knee R² above Table 3's on NUM \(WBDS18_early .*?\), "
+        r"mean\(knee, hip\) above on all NUM; iterations median NUM, at most NUM \((\S+)\); "
+        r"whole command median \*\*NUM s\*\*, at most NUM s, NUM of NUM within 15 s, total NUM "
+        r"s \(e0f3ace: median NUM s loaded, total NUM s\)\. The price is knee R²: NUM-NUM "
+        r"lower than the schur row's where both converged \(WBDS20_knee- NUM against NUM, "
+        r"WBDS20_early NUM against NUM\)")
+    (n, ok, ok_cap, lo, hi, resim, resim_cap, knee, mean, its, most, most_file, med, top,
+     fast, n2, total, med_cap, total_cap, d_lo, d_hi, k1, s1, k2, s2) = groups
+    checks.number(name, n, len(run.rows), what="files")
+    checks.number(name, n2, len(run.rows), what="files")
+    checks.number(name, ok, run.status.count("Solve_Succeeded"), what="Solve_Succeeded")
+    checks.number(name, ok_cap, cap.status.count("Solve_Succeeded"), what="e0f3ace's")
+    checks.truth(name, "all stable", all(Decimal(r) < 1 for r in run.rho))
+    checks.number(name, resim_cap, max(float(x) for x in cap.resim), what="e0f3ace re-sim")
+    checks.tally(name, knee, run.above_table_3(), what="knee above Table 3")
+    checks.tally(name, mean, run.above_table_3(mean=True), what="mean above Table 3")
+    checks.truth(name, f"the most iterations are {most_file}'s",
+                 run.by[most_file]["iterations"] == most)
+    _run_figures(checks, name, run, {"rho_min": lo, "rho_max": hi, "resim": resim,
+                                     "iterations": its, "most": most, "median": med,
+                                     "max": top, "within_15": fast, "total": total})
+    _run_figures(checks, name, cap, {"median": med_cap, "total": total_cap})
+    schur = "e0f3ace (schur): wall s, iterations, knee, rho"
+    checks.truth(name, "the last column is the cap run's", all(
+        r[schur] == ", ".join(c[k] for k in ("wall s", "iterations", "knee", "rho"))
+        for r, c in zip(run.rows, cap.rows, strict=True)))
+    lower = [Decimal(cap.by[f]["knee"]) - Decimal(r["knee"]) for f, r in run.by.items()
+             if cap.by[f]["knee"] != "nan"]
+    checks.figure(name, d_lo, min(lower), 3, "the least knee R² lost")
+    checks.figure(name, d_hi, max(lower), 3, "the most knee R² lost")
+    for printed, r in ((k1, run.by["WBDS20_knee-"]), (s1, cap.by["WBDS20_knee-"]),
+                       (k2, run.by["WBDS20_early"]), (s2, cap.by["WBDS20_early"])):
+        checks.number(name, printed, float(r["knee"]), what="a knee R² of the tables")
+    checks.verify()
+
+
+def test_fit_page_the_process_corpus_runs_totals(checks):
+    """fit.md and performance.md: the totals under the corpus tables of ``bench_fit.py
+    --corpus --process`` (the first one, with the new rows, with the zig-zag stall, and
+    this session's three runs, whose per-file table is the last run's): radii, statuses,
+    the wall times' median, maximum, total and counts within a limit, the iterations'
+    median, each against the table above it and the "before" figures against the table of
+    the run before. A count of files "above 10 s" leaves open the files printed 10.0."""
+    runs = _runs()
+    name = "fit.md"
+    run, power = runs["process"], runs["power"]
+    groups = passage(
+        name, r"Totals: \*\*NUM of NUM stable\*\* \(rho NUM-NUM\), \*\*valid\*\*, re-simulated "
+        r"to < NUM; every final solve Solve_Succeeded; knee R² and mean\(knee, hip\) at or "
+        r"above the problem file's on \*\*all NUM\*\* \(before the floor margin: NUM\)\. "
+        r"Iterations median \*\*NUM\*\* \(the previous corpus run: NUM\)\. Whole command: "
+        r"median \*\*NUM s\*\*, at most NUM s \((\S+), NUM iterations\), NUM of NUM within 20 "
+        r"s, total NUM s\. One file stalled: (\S+) stopped at NUM iterations and its warm "
+        r"restart converged in NUM \(NUM in all;")
+    (stable, n, lo, hi, resim, every, before, its, its_power, med, top, slow, slow_its,
+     within_20, n2, total, stalled, first, restart, both) = groups
+    for printed in (n, n2, every):
+        checks.number(name, printed, len(run.rows), what="files")
+    checks.number(name, stable, sum(Decimal(r) < 1 for r in run.rho), what="stable")
+    checks.truth(name, "every final solve Solve_Succeeded",
+                 all(s.endswith("Solve_Succeeded") for s in run.status))
+    for what, outcomes in (("knee", run.above_table_3()),
+                           ("mean", run.above_table_3(mean=True))):
+        checks.truth(name, f"{what} R² at or above Table 3's on all",
+                     not any(o is False for o in outcomes))
+    checks.tally(name, before, power.above_table_3(), what="knee above Table 3 (before)")
+    _run_figures(checks, name, run, {"rho_min": lo, "rho_max": hi, "resim": resim,
+                                     "iterations": its, "median": med, "max": top,
+                                     "within_20": within_20, "total": total})
+    _run_figures(checks, name, power, {"iterations": its_power})
+    checks.truth(name, f"the slowest file is {slow}, {slow_its} iterations",
+                 run.by[slow]["whole command s"] == top
+                 and run.by[slow]["iterations"] == slow_its)
+    checks.truth(name, f"{stalled} stalled: {first}+{restart} = {both} iterations",
+                 run.by[stalled]["iterations"] == f"{first}+{restart}"
+                 and int(first) + int(restart) == int(both)
+                 and "User_Requested_Stop" in run.by[stalled]["status"])
+
+    run, before = runs["rows"], runs["process"]
+    groups = passage(
+        name, r"Totals: \*\*NUM of NUM stable\*\* \(rho NUM-NUM\), \*\*valid\*\*, re-simulated "
+        r"to < NUM; every solve Solve_Succeeded, none stalled \((\S+) converged in NUM "
+        r"iterations, before it stalled at NUM and restarted\); knee R² and mean\(knee, hip\) "
+        r"at or above the problem file's on all NUM, every R² the same as in the previous "
+        r"corpus run to the printed digits but (\S+)'s \(knee / thigh NUM / NUM against NUM / "
+        r"NUM\)\. Whole command: median \*\*NUM s\*\* \(before NUM s\), at most \*\*NUM s\*\* "
+        r"\((\S+), NUM iterations; before NUM s\), \*\*NUM of NUM within 20 s\*\* \(before "
+        r"NUM\), total NUM s \(before NUM s\)\. Iterations median NUM \(before NUM\)")
+    (stable, n, lo, hi, resim, again, again_its, stalled_at, every, changed, k, t, k0, t0,
+     med, med0, top, slow, slow_its, top0, within_20, n2, within_0, total, total0, its,
+     its0) = groups
+    for printed in (n, n2, every):
+        checks.number(name, printed, len(run.rows), what="files")
+    checks.number(name, stable, sum(Decimal(r) < 1 for r in run.rho), what="stable")
+    checks.truth(name, "every solve Solve_Succeeded",
+                 set(run.status) == {"Solve_Succeeded"})
+    checks.truth(name, f"{again}: {again_its} iterations, before stalled at {stalled_at}",
+                 run.by[again]["iterations"] == again_its
+                 and before.by[again]["iterations"].split("+")[0] == stalled_at)
+    for outcomes in (run.above_table_3(), run.above_table_3(mean=True)):
+        checks.truth(name, "R² at or above Table 3's on all",
+                     not any(o is False for o in outcomes))
+    differ = [f for f, r in run.by.items()
+              if any(r[c] != before.by[f][c] for c in ("knee", "hip", "thigh"))]
+    checks.truth(name, f"only {changed}'s R² changed (the table: {differ})", differ == [changed])
+    for printed, value in ((k, run.by[changed]["knee"]), (t, run.by[changed]["thigh"]),
+                           (k0, before.by[changed]["knee"]),
+                           (t0, before.by[changed]["thigh"])):
+        checks.number(name, printed, float(value), what=f"{changed}'s R²")
+    checks.truth(name, f"the slowest file is {slow}, {slow_its} iterations",
+                 run.by[slow]["whole command s"] == top
+                 and run.by[slow]["iterations"] == slow_its)
+    _run_figures(checks, name, run, {"rho_min": lo, "rho_max": hi, "resim": resim,
+                                     "median": med, "max": top, "within_20": within_20,
+                                     "total": total, "iterations": its})
+    _run_figures(checks, name, before, {"median": med0, "max": top0, "within_20": within_0,
+                                        "total": total0, "iterations": its0})
+
+    run, before = runs["zigzag"], runs["rows"]
+    groups = passage(
+        name, r"Totals: \*\*NUM of NUM stable\*\* \(rho NUM-NUM\), \*\*valid\*\*, re-simulated "
+        r"to < NUM; NUM solves Solve_Succeeded, one stopped as a zig-zag \((\S+), NUM "
+        r"iterations, its best feasible iterate: knee / hip NUM / NUM against NUM / NUM when "
+        r"IPOPT ran on to NUM\); knee R² and mean\(knee, hip\) at or above the problem file's "
+        r"on all NUM\. Whole command: median \*\*NUM s\*\* \(before NUM s\), at most \*\*NUM "
+        r"s\*\* \((\S+); before NUM s\), \*\*NUM of NUM within 20 s\*\*, NUM within 10 s, total "
+        r"NUM s \(before NUM s\); iterations median NUM\. .*? The median file needs NUM "
+        r"iterations")
+    (stable, n, lo, hi, resim, ok, zig, zig_its, k, h, k0, h0, its0_zig, every, med, med0,
+     top, slow, top0, within_20, n2, within_10, total, total0, its, its_again) = groups
+    for printed in (n, n2, every):
+        checks.number(name, printed, len(run.rows), what="files")
+    checks.number(name, stable, sum(Decimal(r) < 1 for r in run.rho), what="stable")
+    checks.number(name, ok, run.status.count("Solve_Succeeded"), what="Solve_Succeeded")
+    checks.truth(name, f"{zig} stopped as a zig-zag, {zig_its} iterations",
+                 run.by[zig]["status"].startswith("stalled (zig-zag)")
+                 and run.by[zig]["iterations"] == zig_its)
+    for printed, value in ((k, run.by[zig]["knee"]), (h, run.by[zig]["hip"]),
+                           (k0, before.by[zig]["knee"]), (h0, before.by[zig]["hip"]),
+                           (its0_zig, before.by[zig]["iterations"])):
+        checks.number(name, printed, float(value), what=f"{zig} in the two runs")
+    for outcomes in (run.above_table_3(), run.above_table_3(mean=True)):
+        checks.truth(name, "R² at or above Table 3's on all (zig-zag run)",
+                     not any(o is False for o in outcomes))
+    checks.truth(name, f"the slowest file is {slow}", run.by[slow]["whole command s"] == top)
+    _run_figures(checks, name, run, {"rho_min": lo, "rho_max": hi, "resim": resim,
+                                     "median": med, "max": top, "within_20": within_20,
+                                     "within_10": within_10, "total": total,
+                                     "iterations": its})
+    _run_figures(checks, name, run, {"iterations": its_again})
+    _run_figures(checks, name, before, {"median": med0, "max": top0, "total": total0})
+
+    # the session's three runs: their table of totals against the last run's per-file table
+    last = table("fit.md", "knee / hip R² | spectral radius")
+    per_file = Run([{**r, "status": "", "knee": "-"} for r in last])
+    summary = table("fit.md", "| run | whole command: median, max, total |")
+    now = next(r for r in summary if "**now**" in r["run"])
+    med, top, total = numbers(now["whole command: median, max, total"])
+    _run_figures(checks, name, per_file, {"median": med, "max": top, "total": total})
+    checks.tally(name, now["files above 10 s"],
+                 [None if o is None else not o for o in per_file.within(10)],
+                 what="files above 10 s")
+    for row in summary[:3]:  # the iterations are the same in all three runs of the session
+        its, its_total = numbers(row["iterations: median, total"])
+        _run_figures(checks, name, per_file, {"iterations": its})
+        checks.figure(name, its_total, Decimal(sum(per_file.iterations)),
+                      what="iterations in all")
+    earlier = next(r for r in summary if "89adf82" in r["run"])
+    med, top = numbers(earlier["whole command: median, max, total"])
+    _run_figures(checks, name, runs["zigzag"], {"median": med, "max": top})
+
+    # performance.md quotes the zig-zag run
+    n, lo, hi, med, fewest, most = passage(
+        "performance.md", r"the NUM corpus files take NUM to NUM s each for the whole "
+        r"command, median NUM s, NUM to NUM IPOPT iterations at about 0\.25 s each \(measured "
+        r"at commit 89adf82")
+    checks.number("performance.md", n, len(run.rows), what="files")
+    _run_figures(checks, "performance.md", run, {"min": lo, "max": hi, "median": med,
+                                                 "fewest": fewest, "most": most})
+    checks.verify()
+
+
+# -- per-leg-fit.md: sums and ratios of its tables ---------------------------------------------
+def _iterations_and_wall(cell: str) -> tuple[int, Decimal]:
+    """A cell "123 + 54 (stalled, restart), 157.9 s" (bold or not): the iterations summed
+    and the wall time."""
+    m = re.fullmatch(r"\**([\d +]+?)(?: \([^)]*\))?, ([\d.]+) s\**", cell)
+    assert m, f"not iterations and a wall time: {cell!r}"
+    return sum(map(int, m.group(1).split("+"))), Decimal(m.group(2))
+
+
+def test_per_leg_fit_page_sums_of_its_tables(checks):
+    """per-leg-fit.md: the sum of 1 - R² of the start and of the fit (the table's four R²;
+    the fit's 0.849 is its objective 0.8493, which the table's rounded R² give to within
+    their rounding, 4 x 0.0005), the warm start's totals over the four subjects (iterations
+    and whole commands per start), the counts the prose quotes from that table, a stride
+    iteration's cost from the next table, its "before" column (the first table's warm
+    starts) and how far WBDS18's and WBDS20's answers moved (the largest R² difference)."""
+    name = "per-leg-fit.md"
+    first = table(name, "stride radius | IPOPT iterations")
+
+    def loss(row):
+        r2 = [Decimal(v) for side in ("left", "right") for v in numbers(row[side])]
+        assert len(r2) == 4
+        return 4 - sum(r2)
+    start, fit = first[0], first[1]
+    assert fit["command"] == "`pdw-fit --gait data/subjects/WBDS09_fast_sides.csv`"
+    objective, = passage(name, r"the stride NLP ends Solve_Succeeded in \d+ iterations at "
+                         r"objective NUM")
+    s0, s1 = passage(name, r"the sum of 1 - R² falls from NUM \(the symmetric fit repeated\) "
+                     r"to NUM")
+    checks.figure(name, s0, loss(start), 3, "the start's sum of 1 - R²")
+    checks.number(name, s1, float(objective), what="the fit's sum of 1 - R²: its objective")
+    checks.truth(name, f"the table's R² give the objective {objective} within their rounding",
+                 abs(loss(fit) - Decimal(objective)) <= 4 * Decimal("0.0005"))
+
+    warm = {r["subject"]: r for r in table(name, "warm, equal blocks only")}
+    columns = ("warm, all rows", "warm, equal blocks only", "cold start (before)")
+    cells = {c: [_iterations_and_wall(r[c]) for r in warm.values()] for c in columns}
+    groups = passage(name, r"In all: NUM stride iterations with all rows mapped, NUM with "
+                     r"equal blocks only, NUM cold; whole commands NUM s, NUM s, NUM s\.")
+    for printed, c in zip(groups[:3], columns, strict=True):
+        checks.figure(name, printed, Decimal(sum(i for i, _ in cells[c])), what=f"{c}: its")
+    for printed, c in zip(groups[3:], columns, strict=True):
+        checks.figure(name, printed, sum(w for _, w in cells[c]), 1, f"{c}: wall")
+    checks.passage(name, r"\(WBDS20: NUM and NUM\)",
+                   _iterations_and_wall(warm["WBDS20"]["warm, equal blocks only"])[0],
+                   _iterations_and_wall(warm["WBDS20"]["warm, all rows"])[0])
+    checks.passage(name, r"WBDS10, which converges, is slower warm \(NUM against NUM\)",
+                   _iterations_and_wall(warm["WBDS10"]["warm, all rows"])[0],
+                   _iterations_and_wall(warm["WBDS10"]["cold start (before)"])[0])
+
+    later = {r["subject"]: r for r in table(name, "| symmetric start | stride NLP |")}
+    cost = {s: [Decimal(v) for v in numbers(later[s]["stride NLP"])] for s in ("WBDS09",
+                                                                             "WBDS10")}
+    per = [wall / n for n, wall in cost.values()]
+    checks.passage(name, r"a stride iteration costs NUM-NUM s \(NUM s / NUM, NUM s / NUM\)",
+                   min(per), max(per), cost["WBDS09"][1], cost["WBDS09"][0],
+                   cost["WBDS10"][1], cost["WBDS10"][0])
+    head = "whole command (before: the table above, all rows)"
+    for s, row in later.items():
+        _, before = numbers(row[head])
+        checks.number(name, before, float(_iterations_and_wall(warm[s]["warm, all rows"])[1]),
+                      what=f"{s}: the whole command before")
+    moved = max(abs(Decimal(a) - Decimal(b)) for s in ("WBDS18", "WBDS20")
+                for a, b in zip(numbers(later[s]["left knee / hip"])
+                                + numbers(later[s]["right knee / hip"]),
+                                numbers(warm[s]["answer, all rows: left knee / hip, right "
+                                             "knee / hip"]), strict=True))
+    checks.passage(name, r"their answers are within NUM in R² of the table above", moved)
+    checks.verify()
+
+
+# -- cohort.md: figures of the stored cohort table ---------------------------------------------
+def test_cohort_page_figures_of_the_stored_cohort(checks):
+    """cohort.md: figures the prose draws from ``docs/results/cohort.csv``: the per-side
+    fits' largest stride radius and its per-step square root, the paper-body fits' R²
+    against the earlier radius-bounded ones the page quotes, the own-body table's "paper
+    body" column, the own bodies' knee R² lost and hip R² moved against the paper body, their
+    compliance ranges, the eight-step bound's cost in knee R², and the CPU range of the
+    paper-body table."""
+    name = "cohort.md"
+    stored = pd.read_csv(RESULTS / "cohort.csv", dtype=str, keep_default_na=False)
+
+    def fits(kind, body):
+        rows = stored[(stored["kind"] == kind) & (stored["body"] == body)]
+        return rows.set_index("subject_id")
+    paper, own, sides = fits("symmetric", "paper"), fits("symmetric", "own"), fits("sides",
+                                                                                "own")
+    top = max(float(v) for v in sides["stride_spectral_radius"])
+    checks.passage(name, r"stable \(stride rho at most NUM, per step its square root, at most "
+                   r"NUM\)", top, math.sqrt(top))
+    # the paper body against the earlier radius-bounded fit
+    m = find(name, r"knee / hip (NUM / NUM, NUM / NUM, NUM / NUM, NUM / NUM)\): the same "
+             r"\$R\^2\$ to within NUM except WBDS20's knee \(NUM against NUM\) and hip \(NUM "
+             r"against NUM\)")
+    earlier = numbers(m.group(1))
+    pairs = dict(zip(paper.index, zip(earlier[::2], earlier[1::2], strict=True), strict=True))
+    moved = max(abs(Decimal(paper.loc[s, f"r2_{c}"]) - Decimal(pairs[s][i]))
+                for s in paper.index if s != "WBDS20" for i, c in enumerate(("knee", "hip")))
+    checks.passage(name, r"the same \$R\^2\$ to within NUM except WBDS20's knee \(NUM against "
+                   r"NUM\) and hip \(NUM against NUM\)", moved,
+                   float(paper.loc["WBDS20", "r2_knee"]), float(pairs["WBDS20"][0]),
+                   float(paper.loc["WBDS20", "r2_hip"]), float(pairs["WBDS20"][1]))
+    cpu = [Decimal(r["CPU (s)"]) for r in table(name, "| rho | status |")]
+    lo, hi = passage(name, r"on the paper's body below cost NUM to NUM CPU seconds")
+    checks.figure(name, lo, min(cpu), 1, "the least CPU")
+    checks.figure(name, hi, max(cpu), 1, "the most CPU")
+    # the own bodies
+    for row in table(name, "body: spectral radius"):
+        knee, hip = numbers(row["paper body: knee / hip"])
+        s = row["subject"]
+        checks.number(name, knee, float(paper.loc[s, "r2_knee"]), what=f"{s}: paper knee")
+        checks.number(name, hip, float(paper.loc[s, "r2_hip"]), what=f"{s}: paper hip")
+    lost = [float(paper.loc[s, "r2_knee"]) - float(own.loc[s, "r2_knee"]) for s in own.index]
+    hip = max(abs(float(own.loc[s, "r2_hip"]) - float(paper.loc[s, "r2_hip"]))
+              for s in own.index)
+    checks.passage(name, r"On their own bodies knee R² is NUM to NUM \*\*lower\*\* than on the "
+                   r"paper's body for the same curves and hip R² about the same \(within ±NUM\)",
+                   min(lost), max(lost), hip)
+    k_knee = [float(v) for v in own["k_knee_N_m_per_rad"]]
+    k_ankle = [float(v) for v in own["k_ankle_N_m_per_rad"]]
+    checks.passage(name, r"Compliance on the own bodies: k_knee NUM-NUM N m/rad, k_ankle "
+                   r"NUM-NUM N m/rad", min(k_knee), max(k_knee), min(k_ankle), max(k_ankle))
+    m = find(name, r"gave knee (NUM / NUM / NUM / NUM): the eight-step bound costs WBDS18 NUM "
+             r"and WBDS20 NUM of knee R² on these bodies, and WBDS20 takes NUM iterations")
+    before = dict(zip(own.index, map(float, numbers(m.group(1))), strict=True))
+    checks.passage(name, r"the eight-step bound costs WBDS18 NUM and WBDS20 NUM of knee R² on "
+                   r"these bodies, and WBDS20 takes NUM iterations",
+                   before["WBDS18"] - float(own.loc["WBDS18", "r2_knee"]),
+                   before["WBDS20"] - float(own.loc["WBDS20", "r2_knee"]),
+                   int(own.loc["WBDS20", "iterations"]))
+    checks.truth(name, "the eight-step bound costs WBDS09 and WBDS10 nothing", all(
+        as_printed(before[s], "0.000") == own.loc[s, "r2_knee"] for s in ("WBDS09", "WBDS10")))
+    checks.verify()
+
+
+# -- faults.md, toes.md: the corpora the scripts build -----------------------------------------
+def _script(name: str):
+    """``scripts/<name>.py`` as a module."""
+    path = ROOT / "scripts" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"_pages_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_faults_page_the_cases_by_kind(tmp_path, checks):
+    """faults.md: the cases of ``scripts/faults.py`` (its ``make_cases``, without running
+    them) by kind, in all, the ones the page's ``-k`` re-runs select, and the file-size
+    limits' range."""
+    faults = _script("faults")
+    cases = faults.make_cases(faults.make_files(tmp_path))
+    kinds = [c.kind for c in cases]
+    name = "faults.md"
+    rows = table(name, "| kind | cases |")
+    checks.truth(name, "the table names every kind once",
+                 sorted(r["kind"] for r in rows) == sorted(set(kinds)))
+    for row in rows:
+        checks.number(name, row["cases"], kinds.count(row["kind"]), what=f"{row['kind']} cases")
+    checks.passage(name, r"\(`python scripts/faults\.py`, [\d-]+, idle 2 cores\): \d+ of NUM",
+                   len(cases))
+    checks.passage(name, r"An earlier run the same day: NUM cases", len(cases))
+
+    def selected(k):
+        return sum(k in c.id for c in cases)
+    checks.passage(name, r"\(`-k signal-fixed-point-solving`: \d+ of NUM, `-k "
+                   r"signal-design-imports`: \d+ of NUM\)", selected("signal-fixed-point-solving"),
+                   selected("signal-design-imports"))
+    checks.passage(name, r"`python scripts/faults\.py -k concurrent` gives \d+ of NUM",
+                   selected("concurrent"))
+    limits = [c.fsize for c in cases if c.kind == "fsize"]
+    checks.passage(name, r"`RLIMIT_FSIZE` of NUM B to NUM MB", min(limits), max(limits) / 1e6)
+    checks.verify()
+
+
+def test_toes_page_the_sampled_ranges(checks):
+    """toes.md: the compliance ranges ``pdw-seed toes`` samples by default
+    (``pdw_casadi.studies.seed_run.TOES_RANGES``), each key in the page's order."""
+    from pdw_casadi.studies.seed_run import TOES_RANGES
+
+    drawn = find("toes.md", r"--samples 2000 --seed 0` \([\d.]+ s\) draws (.*?) and simulates "
+                 r"one step").group(1)
+    listed = re.findall(rf"(\w+) {NUM}-{NUM}", drawn)
+    checks.truth("toes.md", f"the page's keys {[k for k, _, _ in listed]} are TOES_RANGES'",
+                 [k for k, _, _ in listed] == list(TOES_RANGES))
+    for key, lo, hi in listed:
+        if key in TOES_RANGES:
+            checks.number("toes.md", lo, TOES_RANGES[key][0], what=f"{key}: from")
+            checks.number("toes.md", hi, TOES_RANGES[key][1], what=f"{key}: to")
+    checks.verify()
+
+
+# -- fit.md: the data files it counts ----------------------------------------------------------
+def test_fit_page_the_corpus_and_atlas_files(checks):
+    """fit.md: ``data/corpus``'s one-curve and per-side files, the gait file's samples
+    (``data/female_fast.csv``, and every corpus file as many), and the atlas's entries
+    (``data/atlas/humanlike_6link.json``: the walker's own curves, the cohort mean and its
+    six deformations at one radius, two entries at another)."""
+    name = "fit.md"
+    files = sorted((DATA / "corpus").glob("*.csv"))
+    sides = [p for p in files if p.stem.endswith("_sides")]
+    one = [p for p in files if p not in sides]
+    checks.passage(name, r"and the per-side file: NUM one-curve files and NUM per-side files",
+                   len(one), len(sides))
+    subjects = read_json(DATA / "corpus" / "spread.json")["subjects"]
+    checks.truth(name, "one per-side file per subject of the corpus",
+                 [p.stem.removesuffix("_sides") for p in sides] == sorted(subjects))
+    samples = len(pd.read_csv(DATA / "female_fast.csv"))
+    checks.passage(name, r"the rows held the gait file's NUM knee and hip angles", samples)
+    checks.truth(name, f"every corpus file has {samples} samples",
+                 all(len(pd.read_csv(p)) == samples for p in files))
+    entries = read_json(DATA / "atlas" / "humanlike_6link.json")["entries"]
+    checks.passage(name, r"the corpus's files start from the NUM atlas entries", len(entries))
+    radius = [float(e["label"].rsplit("-rho", 1)[1]) for e in entries]
+    new, kept = sorted(set(radius), reverse=True)
+    targets = sorted(p.stem for p in (DATA / "atlas" / "targets").glob("*.csv"))
+    checks.truth(name, "at the first radius: the own curves, female_fast and its six "
+                 "deformations", sorted(e["label"] for e, r in zip(entries, radius, strict=True)
+                                        if r == new)
+                 == sorted(f"humanlike_6link-{c}-rho{new:g}"
+                           for c in ("own", "female_fast", *targets))
+                 and len(targets) == 6 and radius.count(kept) == 2)
+    checks.passage(name, r"deformations \(knee range, hip offset and timing .*?\), each at "
+                   r"radius NUM; the two NUM entries", new, kept)
     checks.verify()
