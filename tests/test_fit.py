@@ -463,3 +463,33 @@ def test_the_gait_file_enters_the_fit_nlp_as_its_parameters_not_its_rows(problem
     hb = np.r_[other.resample(101).knee_deg, other.resample(101).hip_deg]
     np.testing.assert_allclose(ea - eb, hb - ha, atol=1e-9)
 
+
+
+def test_an_unstable_start_is_brought_down_by_relaxed_bounds(problem):
+    """The continuation from a start above the stability bound
+    (FitOptions.radius_stage_ratio): relaxed bounds loosest first, each a factor ``ratio``
+    below the one before and the last a factor ``ratio`` above the fit's bound, the first
+    asking at most that factor of the start's row; none for a start within ``ratio`` of the
+    bound, or with the continuation off. The paper walker's own gait (rho 1.0068, unstable)
+    against bounds of 0.3-0.5 per step."""
+    from pdw_casadi.fit.core import StepFit
+
+    human = load_gait_curves("female_fast.csv")
+    fp = find_fixed_point(problem)
+    for max_radius, ratio in ((0.5, 1.5), (0.3, 2.0), (0.31, 1.2)):
+        opts = FitOptions(verbose=False, max_radius=max_radius, radius_stage_ratio=ratio)
+        fit = StepFit(problem, human, opts, 0, "problem", fp.spectral_radius)
+        nlp = fit.nlp(fp.state, fp.parameters)
+        solver = fit.solver(nlp)
+        r0, bound = solver.row.value(nlp.w0), opts.radius_bound()
+        assert r0 > 1.0  # the row bounds the radius from above: the start is unstable
+        stages = solver.relaxed_bounds(nlp.w0)
+        assert stages, (max_radius, ratio, r0)
+        assert np.allclose(np.array(stages[:-1]) / np.array(stages[1:]), ratio)
+        assert stages[-1] == pytest.approx(bound * ratio)
+        assert r0 / ratio <= stages[0] < r0
+        solver.opts = FitOptions(verbose=False, max_radius=max_radius,
+                                 radius_stage_ratio=r0 / bound * 1.01)
+        assert solver.relaxed_bounds(nlp.w0) == []
+        solver.opts = FitOptions(verbose=False, max_radius=max_radius, radius_stage_ratio=None)
+        assert solver.relaxed_bounds(nlp.w0) == []

@@ -250,36 +250,66 @@ class FitSolver:
         """The ShootingNLP unknowns of a kept iterate, within their bounds."""
         return np.clip(k.x[: self.n_w], self.lo, self.hi)
 
-    def solve(self, w0, warm: FeasibleIterate | None = None) -> dict:
+    def _per_step(self, v: float) -> float:
+        """A stability row value in per-step units (a stride's row is the per-step value
+        squared)."""
+        return math.sqrt(v) if self.per_step else v
+
+    def relaxed_bounds(self, w0) -> list[float]:
+        """The stability row's relaxed bounds of the continuation from the start ``w0``
+        (ShootingNLP unknowns) when its row lies above ``FitOptions.radius_stage_ratio`` x
+        the bound, in the row's units, loosest first; [] when it does not (or without a
+        row): the per-step bound x ratio^k, k = n - 1, ..., 1, with n the fewest stages
+        in which no solve asks more than a factor ``ratio`` of its start (the fit's own
+        bound is the last, its own solve)."""
+        ratio = self.opts.radius_stage_ratio
+        if self.row is None or ratio is None:
+            return []
+        if ratio <= 1:
+            raise ValueError(f"radius_stage_ratio must exceed 1, got {ratio}")
+        r0 = self.row.value(np.clip(w0, self.lo, self.hi))
+        bound = self._per_step(self.bound)
+        if not np.isfinite(r0) or self._per_step(r0) <= ratio * bound:
+            return []
+        n = math.ceil(math.log(self._per_step(r0) / bound) / math.log(ratio))
+        return [(bound * ratio ** k) ** (2 if self.per_step else 1) for k in range(n - 1, 0, -1)]
+
+    def solve(self, w0, warm: FeasibleIterate | None = None, bound: float | None = None,
+              max_iter: int | None = None) -> dict:
         """Solve from ``w0`` (ShootingNLP unknowns), or warm from the kept iterate ``warm``
-        with its multipliers (:attr:`FitOptions.warm_ipopt`). The answer, IPOPT status,
+        with its multipliers (:attr:`FitOptions.warm_ipopt`). ``bound``: the stability
+        row's bound of this solve (default the fit's; :meth:`relaxed_bounds`), ``max_iter``:
+        IPOPT's iterations (default ``FitOptions.max_iter``). The answer, IPOPT status,
         iterations, the nearly feasible iterates kept (``near``), whether it stalled (and
         whether on a bound's zig-zag, ``zigzag``)."""
         opts = self.opts
         extra = {} if opts.mu_max is None else {"mu_max": opts.mu_max}
         if warm is not None:
             extra.update(opts.warm_ipopt)
-        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol,
-                               {**extra, **opts.ipopt}, opts.log_file)
+        ipopt = ipopt_settings(opts.hessian, opts.max_iter if max_iter is None else max_iter,
+                               opts.tol, {**extra, **opts.ipopt}, opts.log_file)
         if warm is not None:
             w0 = self.unknowns(warm)
         w0 = np.clip(w0, self.lo, self.hi)
         e0 = self.err(w0).full().ravel() if warm is None else warm.x[self.n_w:]
+        ubg = self.ubg.copy()
+        if self.row is not None:
+            bound = self.bound if bound is None else bound
+            ubg[-1] = bound
         self.cap[0] = None
         ratchet = None
         if self.row is not None and opts.iterate_radius_slack is not None:
             # per-step units; the start's own radius if that is higher (a start above the
             # bound must still be able to move)
-            def root(v):
-                return math.sqrt(v) if self.per_step else v
+            root = self._per_step
             r0 = self.row.value(w0)
-            top = max(root(self.bound), root(r0) if np.isfinite(r0) else 0.0)
+            top = max(root(bound), root(r0) if np.isfinite(r0) else 0.0)
             cap = top + opts.iterate_radius_slack
             self.cap[0] = cap ** 2 if self.per_step else cap
             if opts.ratchet_cap:
-                low = root(self.bound) + opts.iterate_radius_slack
+                low = root(bound) + opts.iterate_radius_slack
                 ratchet = (self.cap, low ** 2 if self.per_step else low)
-        progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, self.ubg, self.lbx,
+        progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, ubg, self.lbx,
                             self.ubx, self.r2_of, self.row is not None,
                             self.log if opts.verbose else None,
                             feasible_tol=opts.tol if opts.keep_best_feasible else None,
@@ -293,7 +323,7 @@ class FitSolver:
                             "show_eval_warnings": False})
         t0 = time.perf_counter()
         args = {"x0": np.r_[w0, e0], "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg,
-                "ubg": self.ubg, "p": self.p}
+                "ubg": ubg, "p": self.p}
         if warm is not None and warm.lam_x is not None:
             args.update(lam_x0=warm.lam_x, lam_g0=warm.lam_g)
         sol = solver(**args)
@@ -330,5 +360,7 @@ class FitSolver:
                 "fallback_iteration": fallback,
                 #: nearly feasible iterates for the simulator to polish (FitOptions.polish_*)
                 "near": progress.near,
+                #: the lowest-objective iterate that held every row, with its multipliers
+                "best": best,
                 "stalled": progress.stalled, "zigzag": progress.zigzag,
                 "history": progress.history}

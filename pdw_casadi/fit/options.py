@@ -80,6 +80,17 @@ class FitOptions:
     #: iterate's row first reaches it, so that no later step leaves the stable region
     #: (pdw_casadi.nlp.driver.Progress; docs/results/fit.md)
     ratchet_cap: bool = False
+    #: a start whose stability row lies above ``radius_stage_ratio`` x the bound (an
+    #: unstable start: a walker's first gait, a seed) is brought down by continuation
+    #: first: solves with the bound relaxed to bound x ratio^k, k = n - 1, ..., 1, each from
+    #: where the one before ended, so that no solve asks more than a factor ``ratio`` of its
+    #: start; then the fit's own solve (None: one solve from the start, whatever its row;
+    #: :func:`~pdw_casadi.fit.rounds.relax_stability`). Off: with 2 the two shipped unstable
+    #: starts measured (the forefoot rocker's, the toe walker's) found no gait, and the toe
+    #: walker's fit without it does (docs/results/timing.md)
+    radius_stage_ratio: float | None = None
+    #: IPOPT's iterations in each relaxed solve (its answer only has to hold its bound)
+    radius_stage_iter: int = 100
     #: a constraint knee R^2 >= floor: "reference" (the R^2 of the problem's own compliance
     #: on the same curves, when it has a gait), a number, or None (no floor); the sum of
     #: 1 - R^2 alone may trade knee for hip below the problem file's own knee. Only with

@@ -34,6 +34,9 @@ class Solve:
     #: the iteration whose feasible iterate stands for the answer of a solve that stopped
     #: short of convergence (None: IPOPT's own answer)
     fallback_iteration: int | None = None
+    #: the stability row's relaxed bound of a continuation solve from an unstable start
+    #: (:attr:`~pdw_casadi.fit.options.FitOptions.radius_stage_ratio`; None: the fit's own)
+    stage_bound: float | None = None
 
     def to_dict(self) -> dict:
         return dict(self.__dict__)

@@ -16,9 +16,12 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
+import numpy as np
+
 from pdw_casadi.fit.driver import FitSolver
 from pdw_casadi.fit.options import FitOptions
 from pdw_casadi.fit.result import Solve
+from pdw_casadi.nlp.driver import FeasibleIterate
 
 #: the objective's floor in the relative consistency test (a near-perfect fit's objective
 #: ~0 would otherwise ask for an absolute gap of ~0)
@@ -82,6 +85,50 @@ def polish_iterates(fit: MapFit, nlp, solver: FitSolver, out: dict, targets, log
     return best
 
 
+def relax_stability(fit: MapFit, nlp, solver: FitSolver, solves: list, log=print):
+    """The continuation from an unstable start (:meth:`FitSolver.relaxed_bounds`): a
+    solve per relaxed bound of the stability row, loosest first
+    (``FitOptions.radius_stage_iter`` iterations each, at most ``max_iter``), recorded in
+    ``solves``. Each solve
+    goes on from the iterate the one before ended at, with its multipliers
+    (``FitOptions.warm_ipopt``): its answer, else its best iterate that held every row,
+    else its least infeasible nearly feasible one (``FitOptions.polish_infeasibility``),
+    which the next solve makes feasible. A solve that keeps none ends the continuation.
+    Returns the last iterate kept, for the fit's own solve
+    (:class:`~pdw_casadi.nlp.driver.FeasibleIterate`; None: no relaxed solve, or none
+    kept an iterate)."""
+    point = None
+    for bound in solver.relaxed_bounds(nlp.w0):
+        out = solver.solve(nlp.w0, warm=point, bound=bound,
+                           max_iter=min(solver.opts.radius_stage_iter, solver.opts.max_iter))
+        near, last = out.get("near") or [], point
+        if out["success"]:
+            x = np.r_[out["w"], solver.err(out["w"]).full().ravel()]
+            point = FeasibleIterate(out["iterations"], out["objective"], x, 0.0,
+                                    out["lam_x"], out["lam_g"])
+        elif out.get("best") is not None:
+            point = out["best"]
+        elif near:
+            point = min(near, key=lambda k: k.infeasibility)
+        else:
+            point = None
+        hist = out["history"]
+        at = None if point is None else min(point.iteration, len(hist) - 1)
+        row = hist[at].spectral_bound if at is not None and at >= 0 else math.nan
+        solves.append(Solve(fit.start, 0, out["status"], out["iterations"],
+                            out["wall_time_s"], out["objective"], math.nan, row,
+                            out.get("fallback_iteration"), stage_bound=bound))
+        log(f"{fit.where(0)}: the stability row relaxed to {bound:.4g}: {out['status']} "
+            f"after {out['iterations']} iterations; "
+            + (f"on from iteration {point.iteration} (row {row:.4g}, infeasibility "
+               f"{point.infeasibility:.1e})" if point is not None else
+               "no nearly feasible iterate; the fit goes on from where the solve before "
+               "ended" if last is not None else "no nearly feasible iterate"))
+        if point is None:
+            return last
+    return point
+
+
 def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
     """The rounds of one start (x: section state, p: the map's parameters): (every round's
     checked candidate, the IPOPT solves, notes). A round whose NLP cannot be built, whose
@@ -118,6 +165,9 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
                     + ("stored solution at the start, with its multipliers" if fit.steps == 1
                        else f"symmetric fit's solution, with its multipliers on "
                             f"{solver.mapped} of {solver.n_shooting} shooting rows"))
+            if point is None and rnd == 0:
+                # an unstable start (a walker's first gait) brought down by continuation
+                point = relax_stability(fit, nlp, solver, solves, log)
             out = solver.solve(nlp.w0, warm=point)
         else:
             nlp, solver, k = restart_from
@@ -192,4 +242,4 @@ def fit_rounds(fit: MapFit, x, p, opts: FitOptions, log=print, warm=None):
     return rounds, solves, notes
 
 
-__all__ = ["OBJECTIVE_FLOOR", "MapFit", "fit_rounds", "polish_iterates"]
+__all__ = ["OBJECTIVE_FLOOR", "MapFit", "fit_rounds", "polish_iterates", "relax_stability"]
