@@ -11,6 +11,11 @@ The notebooks are pages too: each ``notebooks/NN_name.ipynb`` becomes the page
 build never runs a notebook, and nothing is written into the repository), listed in the nav's
 section "Notebooks"; a link to a notebook file in a page becomes a link to its page.
 
+Formulas are typeset at build time: ``pymdownx.arithmatex`` (generic mode) wraps each
+``$...$`` and ``$$...$$`` of a page in an element of class ``arithmatex``, and
+:func:`on_page_content` replaces its TeX by MathML (``latex2mathml``), which browsers draw
+natively: the site needs no script and no network to show its math.
+
 Figures are drawn at build time by the current code, never stored: a line
 ``<!-- figure: walker -->`` in a page becomes that figure (a PNG of the site,
 ``figures/<name>.png``, drawn by the function of :data:`FIGURES` from the bundled problems
@@ -24,6 +29,7 @@ from __future__ import annotations
 import atexit
 import base64
 import contextlib
+import html
 import io
 import json
 import os
@@ -326,6 +332,27 @@ def on_files(files, config):
                                   f"but the docs hold a file {uri}")
             files.append(File.generated(config, uri, content=content))
     return files
+
+
+#: a formula as pymdownx.arithmatex (generic mode) writes it: inline \( \) in a span,
+#: display \[ \] in a div (its TeX HTML-escaped)
+ARITHMATEX = re.compile(r'<(span|div) class="arithmatex">\\([(\[])(.*?)\\[)\]]</\1>', re.S)
+
+
+def tex_to_mathml(match: re.Match) -> str:
+    """One arithmatex element with its TeX replaced by MathML (inline or display)."""
+    from latex2mathml.converter import convert
+
+    tag, opening, tex = match.groups()
+    mathml = convert(html.unescape(tex).strip(), display="block" if opening == "[" else "inline")
+    if "<merror" in mathml:
+        raise PluginError(f"docs: the formula {tex!r} is not TeX that latex2mathml reads")
+    return f'<{tag} class="arithmatex">{mathml}</{tag}>'
+
+
+def on_page_content(html_text, page, config, files):
+    """Every formula of the page as MathML (the module docstring)."""
+    return ARITHMATEX.sub(tex_to_mathml, html_text)
 
 
 def on_page_markdown(markdown, page, config, files):

@@ -723,6 +723,28 @@ def test_every_code_block_of_the_site_fits_the_page(api_site):
         "\n".join(too_wide[:40])
 
 
+def test_every_formula_of_the_site_is_mathml_and_no_script_is_fetched(api_site):
+    """The formulas are MathML in the built pages (docs/hooks.py, on_page_content): no
+    arithmatex element still holds TeX, the model page's formulas are there (its power
+    bound's norm, the Frobenius subscript), and no page loads a script from another host
+    (the math needs no network)."""
+    tex_left, remote = [], []
+    formulas = 0
+    for page in sorted(api_site.rglob("*.html")):
+        text = page.read_text(encoding="utf-8")
+        rel = page.relative_to(api_site)
+        tex_left += [f"{rel}: {m[:60]}" for m in
+                     re.findall(r'class="arithmatex">\\[(\[][^<]*', text)]
+        remote += [f"{rel}: {src}" for src in
+                   re.findall(r'<script[^>]+src="((?:https?:)?//[^"]+)"', text)]
+        formulas += text.count("<math ")
+    assert not tex_left, "formulas left as TeX:\n" + "\n".join(tex_left[:20])
+    assert not remote, "scripts from another host:\n" + "\n".join(remote[:20])
+    model = (api_site / "model" / "index.html").read_text(encoding="utf-8")
+    assert model.count("<math ") >= 10 and "<mi>F</mi>" in model
+    assert formulas >= 100
+
+
 def test_the_width_rule_catches_a_wide_line_and_spares_wrapped_output():
     """The parser of the test above: a 90-column code line is found; the same line in a
     notebook's wrapped output block is not held to the width."""
