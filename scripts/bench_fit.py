@@ -230,9 +230,15 @@ def main(argv=None) -> int:
         find_fixed_point(problem)  # warm-up: the simulator's libraries
         warm = bench_one(problem, "female_fast.csv", {**overrides, "max_iter": 1, "rounds": 1})
         print(f"warm-up done ({warm['wall_s']:.1f} s); options {overrides or 'defaults'}")
-    print(f"{'file':22s} {'wall':>6s} {'fit':>6s} {'status':16s} {'iter':>7s} {'knee':>6s} "
-          f"{'hip':>6s} {'thigh':>6s} {'rho':>6s} {'resim':>8s} | {'T3knee':>6s} "
-          f"{'T3hip':>6s} {'T3thi':>6s} | targets", flush=True)
+    if files and all(f.endswith("_sides.csv") for f in files):
+        print(f"{'file':22s} {'wall':>6s} {'fit':>6s} {'status':16s} {'iter':>11s}   "
+              f"{'knee':>6s} {'hip':>6s}   {'knee':>6s} {'hip':>6s} {'rho2':>6s} "
+              f"{'resim':>8s} | targets (L: left leg, R: right, rho2: the stride's)",
+              flush=True)
+    else:
+        print(f"{'file':22s} {'wall':>6s} {'fit':>6s} {'status':16s} {'iter':>7s} {'knee':>6s} "
+              f"{'hip':>6s} {'thigh':>6s} {'rho':>6s} {'resim':>8s} | {'T3knee':>6s} "
+              f"{'T3hip':>6s} {'T3thi':>6s} | targets", flush=True)
     rows = []
     for f in files:
         r = bench_one(problem, f, overrides, process=args.process)
