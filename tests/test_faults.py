@@ -430,6 +430,23 @@ def test_6_a_constant_knee_is_one_error_line_of_pdw_fit(tmp_path, capsys):
 
 
 # -- 7. pdw-scale ---------------------------------------------------------------------------------
+def test_7_problem_toml_makes_its_header_comments():
+    """A header given without its comment sign (scripts/make_prosthetist_study.py wrote
+    "10 % lighter: ...") still gives a file that loads, to the same walker; a header that
+    is already a comment is kept as it is."""
+    from pdw_casadi.model.problem import load_problem, problem_toml
+
+    pb = load_problem("humanlike_6link")
+    for header in ("10 % lighter: data/corpus/WBDS09_sides.csv",
+                   "two lines\n# and a comment\n", "# written by pdw-design\n"):
+        text = problem_toml(pb, header)
+        data = tomllib.loads(text)
+        assert data["compliance"] == {k: float(v) for k, v in pb.compliance.items()}
+        assert text.splitlines()[0].startswith("# ")
+    assert problem_toml(pb, "# written by pdw-design\n").startswith(
+        "# written by pdw-design\n\n[walker]")
+
+
 def test_7_problem_toml_quotes_a_title_with_quotes_and_backslashes():
     from pdw_casadi.model.problem import problem_toml
 

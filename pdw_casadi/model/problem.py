@@ -362,7 +362,8 @@ def toml_string(text: str) -> str:
 
 
 def problem_toml(problem: Problem, header: str = "") -> str:
-    """A problem as TOML text (the layout :func:`load_problem` reads)."""
+    """A problem as TOML text (the layout :func:`load_problem` reads), after ``header``:
+    comment lines (a line not starting with ``#`` is made one)."""
     def table(name, values, units=None):
         lines = [f"[{name}]"]
         for k, v in values.items():
@@ -372,7 +373,12 @@ def problem_toml(problem: Problem, header: str = "") -> str:
                 lines.append(f"{k} = {float(v)!r}")
         return "\n".join(lines) + "\n"
 
-    parts = [header] if header else []
+    # a header line that is not a comment would make the file unreadable
+    head = "".join(line if line.lstrip().startswith("#") or not line.strip() else f"# {line}"
+                   for line in header.splitlines(keepends=True))
+    if head and not head.endswith("\n"):
+        head += "\n"
+    parts = [head] if head else []
     parts.append(f"[walker]\nfamily = {toml_string(problem.family)}\n"
                  f"title = {toml_string(problem.title)}\n")
     parts.append(table("environment", {"g": problem.g, "slope": problem.slope}))
