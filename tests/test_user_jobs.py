@@ -334,6 +334,9 @@ def test_seed_help_names_the_searches_and_their_units(capsys):
     (["toes", "--continue", "k_mtp", "40", "5", "--samples", "3"], "takes no --samples"),
     (["toes", "--problem", "compass_gait"], "needs a walker of the humanlike_toes family"),
     (["toes", "--samples", "0"], "--samples must be >= 1"),
+    (["toes", "--state", "no_such_state.json"], "no_such_state.json"),
+    (["arc", "--r-toe", "0", "--r-heel", "0", "--compliance", "c.json"],
+     "--compliance: option of pdw-seed toes, not of pdw-seed arc"),
     (["guess"], "invalid choice"),
 ])
 def test_seed_refuses_bad_input_and_writes_nothing(tmp_path, capsys, args, fragment):
@@ -341,6 +344,21 @@ def test_seed_refuses_bad_input_and_writes_nothing(tmp_path, capsys, args, fragm
     code, _, err = run(capsys, seed_main, [*args, "--out", str(out)])
     assert_usage_error(code, err, fragment)
     assert not out.exists()
+
+
+def test_seed_toes_continues_the_walker_given_by_state_and_compliance(tmp_path, capsys):
+    """``--state`` and ``--compliance`` (a fit's summary.json, or a table) set the toe
+    walker the continuation starts from: its first point has the overridden value, and it
+    is a fixed point of that walker (converged, a finite spectral radius)."""
+    comp = tmp_path / "c.json"
+    comp.write_text(json.dumps({"k_clutch": 14.0}))
+    out = tmp_path / "c"
+    code, _, err = run(capsys, seed_main, ["toes", "--compliance", str(comp), "--continue",
+                                           "k_clutch", "14.1", "2", "--out", str(out)])
+    assert code == 0, err
+    points = json.loads((out / "continuation.json").read_text())["continuation"]
+    assert points[0]["k_clutch"] == 14.0 and points[-1]["k_clutch"] == pytest.approx(14.1)
+    assert points[0]["converged"] and math.isfinite(points[0]["rho"])
 
 
 def test_seed_toes_scan_writes_its_tally_with_units(tmp_path, capsys):

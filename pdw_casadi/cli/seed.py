@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
-from pdw_casadi.cli.common import gait_file
+from pdw_casadi.cli.common import gait_file, load_cli_problem
 from pdw_casadi.cli.contract import (
     NoGait,
     Outputs,
@@ -19,7 +20,7 @@ from pdw_casadi.cli.contract import (
     positive_float,
     run,
 )
-from pdw_casadi.model.problem import Problem, load_problem
+from pdw_casadi.model.problem import Problem
 from pdw_casadi.report.seed_report import SEED_FILES, seed_lines, write_seed
 from pdw_casadi.studies.seed_run import (
     SEARCHES,
@@ -42,7 +43,8 @@ from pdw_casadi.studies.seed_run import (
 OWNED = {"arc": ("r_toe", "r_heel", "n_min"),
          "heeloff": ("stability", "gait", "weight", "rounds", "max_iter", "threshold", "step",
                      "max_steps", "lengthen_ms"),
-         "toes": ("problem", "samples", "seed", "newton", "range", "cont")}
+         "toes": ("problem", "state", "compliance", "samples", "seed", "newton", "range",
+                  "cont")}
 #: the defaults the searches' flags fall back to (shown in --help)
 HEELOFF_DEFAULTS, TOES_DEFAULTS = HeelOffRequest(), ToesRequest()
 
@@ -170,6 +172,12 @@ def _toes_arguments(parser: argparse.ArgumentParser) -> None:
                 "N m s/rad, angles in rad)")
     t.add_argument("--problem", metavar="NAME_OR_PATH",
                    help=f"the walker and its section state (default: {TOES_FAMILY})")
+    t.add_argument("--state", type=Path, metavar="FILE",
+                   help="section-state overrides (rad, rad/s) of the walker, a JSON/TOML "
+                        "table; a summary.json of this toolkit also works (e.g. a fit's)")
+    t.add_argument("--compliance", type=Path, metavar="FILE",
+                   help="compliance overrides of the walker, a JSON/TOML table; a "
+                        "summary.json also works (the problem's compliance_bounds apply)")
     t.add_argument("--samples", type=int_range("--samples", 1, 1_000_000), metavar="N",
                    help=f"compliance samples (default: {TOES_DEFAULTS.samples})")
     t.add_argument("--seed", type=int_range("--seed", 0, 2**32 - 1), metavar="N",
@@ -229,7 +237,9 @@ def _checked_heeloff(args: argparse.Namespace):
 
 def _checked_toes(args: argparse.Namespace):
     name = args.problem or TOES_FAMILY
-    problem = load_problem(name)
+    # the walker with --state and --compliance applied (a fit's summary.json: its gait)
+    problem = load_cli_problem(argparse.Namespace(problem=name, state=args.state,
+                                                  compliance=args.compliance))
     if args.cont is not None:
         skipped = [_flag(d) for d in ("samples", "seed", "newton", "range")
                    if getattr(args, d) is not None]
