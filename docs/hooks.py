@@ -11,6 +11,11 @@ The notebooks are pages too: each ``notebooks/NN_name.ipynb`` becomes the page
 build never runs a notebook, and nothing is written into the repository), listed in the nav's
 section "Notebooks"; a link to a notebook file in a page becomes a link to its page.
 
+The outputs page's excerpts are written at build time too: a line ``<!-- output: NAME -->``
+becomes an excerpt of that output of the same bundled fit (``terminal``, ``summary.json``,
+``table.md``, ``curves.csv``, ``ipopt.log``; :func:`output_excerpt`), so that what the page
+shows is what the current code writes.
+
 Formulas are typeset at build time: ``pymdownx.arithmatex`` (generic mode) wraps each
 ``$...$`` and ``$$...$$`` of a page in an element of class ``arithmatex``, and
 :func:`on_page_content` replaces its TeX by MathML (``latex2mathml``), which browsers draw
@@ -201,6 +206,8 @@ _FIT_RUN: dict[Path, Path] = {}
 #: the longest the bundled fit may take in a build (s): 30 s from an empty compile cache on
 #: two shared cores, so ten times that is a hang, not a slow machine
 FIT_TIMEOUT_S = 300
+#: the file of the bundled fit's folder that keeps the command's stdout
+TERMINAL = "terminal.txt"
 
 
 def bundled_fit(root: Path) -> Path:
@@ -223,8 +230,88 @@ def bundled_fit(root: Path) -> Path:
         if done.returncode != 0:
             raise PluginError(f"docs: the bundled fit failed ({done.returncode}): "
                               f"{done.stderr.strip()[-2000:]}")
+        # its terminal output, for the outputs page; the folder named as a user's default
+        (out / TERMINAL).write_text(done.stdout.replace(str(out), "fit"))
         _FIT_RUN[root] = out
     return _FIT_RUN[root]
+
+
+# -- the outputs page's excerpts: from the bundled fit the build runs ------------------------
+#: a line ``<!-- output: NAME -->`` of a page becomes an excerpt of that output of the build's
+#: bundled fit (:func:`bundled_fit`): the terminal's stdout or one of the files it wrote
+OUTPUT = re.compile(r"^<!-- output: ([a-z.]+) -->$", re.MULTILINE)
+#: the longest dict or list printed whole in a JSON excerpt; longer ones keep their first
+#: two entries and the last, with "..." between
+JSON_KEEP = 10
+
+
+def json_excerpt(value, indent: int = 0, width: int = CODE_COLUMNS, key: str | None = None
+                 ) -> str:
+    """``value`` as JSON the way a reader skims it: a dict or list that fits on the rest
+    of its line on one line, else one entry per line, indented by 2; below the top level,
+    more than :data:`JSON_KEEP` entries cut to the first two, "..." and the last."""
+    pad = " " * indent
+    head = pad if key is None else f"{pad}{json.dumps(key)}: "
+    flat = json.dumps(value)
+    if not isinstance(value, dict | list) or len(head) + len(flat) <= width:
+        return head + flat
+    if isinstance(value, dict):
+        entries = [json_excerpt(v, indent + 2, width, k) for k, v in value.items()]
+        opening, closing = "{", "}"
+    else:
+        entries = [json_excerpt(v, indent + 2, width) for v in value]
+        opening, closing = "[", "]"
+    if len(entries) > JSON_KEEP and indent > 0:  # the top level whole: every field
+        # "..." stands for entries left out: no comma of its own
+        body = ",\n".join(entries[:2]) + ",\n" + " " * (indent + 2) + "...\n" + entries[-1]
+    else:
+        body = ",\n".join(entries)
+    return f"{head}{opening}\n{body}\n{pad}{closing}"
+
+
+#: the lines of IPOPT's log an excerpt keeps: the sizes, the iteration table's head, its
+#: first two and last iterations, and the final measures
+IPOPT_KEEP = re.compile(r"^(This is Ipopt|Number of nonzeros|Total number of variables|"
+                        r"Total number of (in)?equality constraints|iter +objective|"
+                        r"Number of Iterations|Total seconds in IPOPT|EXIT:)")
+IPOPT_ITERATION = re.compile(r"^ *\d+r? +[-+0-9.e]+ ")
+
+
+def ipopt_excerpt(log: str) -> str:
+    """The first solve of an IPOPT log (print level 5), cut to what a reader needs."""
+    first = log.split("This is Ipopt")[1] if "This is Ipopt" in log else log
+    lines = ("This is Ipopt" + first).splitlines()
+    iterations = [ln for ln in lines if IPOPT_ITERATION.match(ln)]
+    keep, shown = [], set()
+    for ln in lines:
+        if IPOPT_KEEP.match(ln) and ln not in shown:
+            keep.append(ln)
+            shown.add(ln)
+            if ln.startswith("iter"):
+                keep += iterations[:2] + (["..."] if len(iterations) > 3 else [])
+                keep += iterations[2:][-1:]
+    return "\n".join(keep)
+
+
+def output_excerpt(name: str, root: Path) -> str:
+    """The fenced excerpt of output ``name`` of the build's bundled fit (see :data:`OUTPUT`)."""
+    folder = bundled_fit(root)
+    if name == "terminal":
+        return f"```{OUTPUT_LANG}\n{(folder / TERMINAL).read_text().strip()}\n```"
+    path = folder / name
+    if not path.is_file():
+        raise PluginError(f"docs: <!-- output: {name} -->: the bundled fit wrote no {name}")
+    text = path.read_text(encoding="utf-8")
+    if name == "summary.json":
+        data = json.loads(text)
+        data["gait_file"] = ".../" + Path(data["gait_file"]).relative_to(root).as_posix()
+        text = json_excerpt(data)
+    elif name == "curves.csv":
+        rows = text.strip().splitlines()
+        text = "\n".join([*rows[:3], "...", rows[-1]])
+    elif name == "ipopt.log":
+        return f"```text\n{ipopt_excerpt(text)}\n```"
+    return f"```{OUTPUT_LANG}\n{text.strip()}\n```"
 
 
 def figure_fit(root: Path) -> bytes:
@@ -359,6 +446,7 @@ def on_page_markdown(markdown, page, config, files):
     if page.file.abs_src_path:  # a page of docs/: its links to notebook files go to their pages
         markdown = notebook_links(markdown, page.file, config)
     markdown = FIGURE.sub(lambda m: figure_markdown(m.group(1), page.file.src_uri), markdown)
+    markdown = OUTPUT.sub(lambda m: output_excerpt(m.group(1), _root(config)), markdown)
     return MARKER.sub(lambda m: render(m.group(1)), markdown)
 
 

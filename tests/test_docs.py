@@ -3,6 +3,7 @@ an entry point, and nothing in the docs points outside the repository."""
 
 from __future__ import annotations
 
+import html
 import importlib.util
 import json
 import logging
@@ -755,3 +756,48 @@ def test_the_width_rule_catches_a_wide_line_and_spares_wrapped_output():
           '</code></pre></div>'
     blocks = _PreBlocks(f"<p>text</p>{code}<p>more</p>{out}").blocks
     assert [(len(t.split(chr(10))[0]), w) for t, w in blocks] == [(90, False), (90, True)]
+
+
+# -- the outputs page's excerpts: from the fit the build runs ------------------------------
+def test_a_json_excerpt_keeps_every_top_field_and_cuts_long_inner_ones():
+    """docs/hooks.py's json_excerpt: every field of the top level, an inner dict of more
+    than JSON_KEEP entries cut to its first two, "..." and its last, one that fits on its
+    line written on it, and what it prints, the "..." lines dropped, reads back as JSON."""
+    hooks = _load(DOCS / "hooks.py", "_docs_hooks")
+    n = hooks.JSON_KEEP + 3
+    data = {"a": 1, "long": {f"k{i}": i / 7 for i in range(n)}, "short": [1, 2],
+            **{f"f{i}": i for i in range(n)}}
+    text = hooks.json_excerpt(data)
+    lines = text.splitlines()
+    assert all(f'"f{i}": {i}' in text for i in range(n))  # the top level whole
+    assert '  "short": [1, 2],' in lines  # fits on its line
+    inner = [ln.strip() for ln in lines if ln.startswith("    ")]
+    assert inner == [f'"k0": {0 / 7},', f'"k1": {1 / 7},', "...", f'"k{n - 1}": {(n - 1) / 7}']
+    back = json.loads("\n".join(ln for ln in lines if ln.strip() != "..."))
+    assert back["long"] == {"k0": 0.0, "k1": 1 / 7, f"k{n - 1}": (n - 1) / 7}
+    assert back["a"] == 1 and back["short"] == [1, 2] and back[f"f{n - 1}"] == n - 1
+
+
+def test_the_outputs_page_shows_the_builds_own_fit(api_site):
+    """The outputs page's excerpts are written by the build from the bundled fit it runs
+    (``<!-- output: NAME -->``, docs/hooks.py): no marker is left, and the terminal's
+    headline, table.md's row of the fit and summary.json's fields agree (one run), with the
+    IPOPT log's iteration count equal to table.md's."""
+    page = (api_site / "commands" / "outputs" / "index.html").read_text(encoding="utf-8")
+    blocks = [html.unescape(re.sub(r"<[^>]+>", "", b))
+              for b in re.findall(r"<pre[^>]*>(.*?)</pre>", page, re.S)]
+    assert "&lt;!-- output:" not in page and "<!-- output:" not in page
+    terminal = next(b for b in blocks if b.startswith("r2_knee = "))
+    summary = next(b for b in blocks if b.lstrip().startswith('{\n  "gait_file"'))
+    table = next(b for b in blocks if b.startswith("# Fit of humanlike_6link"))
+    log = next(b for b in blocks if b.startswith("This is Ipopt"))
+    knee, hip = (float(v) for v in re.match(r"r2_knee = (\S+)  r2_hip = (\S+)", terminal)
+                 .groups())
+    row = re.search(r"^\| this fit \| (\S+) \| (\S+) \|", table, re.M)
+    assert (float(row.group(1)), float(row.group(2))) == (knee, hip)
+    fields = dict(re.findall(r'^  "(r2_knee|r2_hip)": (\S+),$', summary, re.M))
+    assert round(float(fields["r2_knee"]), 3) == knee and round(float(fields["r2_hip"]), 3) == hip
+    iterations = int(re.search(r"\| IPOPT iterations \(all solves\) \| (\d+) \|", table)
+                     .group(1))
+    assert int(re.search(r"Number of Iterations\.+: +(\d+)", log).group(1)) <= iterations
+    assert terminal.rstrip().endswith("wrote fit")
