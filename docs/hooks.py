@@ -279,8 +279,9 @@ IPOPT_ITERATION = re.compile(r"^ *\d+r? +[-+0-9.e]+ ")
 
 def ipopt_excerpt(log: str) -> str:
     """The first solve of an IPOPT log (print level 5), cut to what a reader needs."""
-    first = log.split("This is Ipopt")[1] if "This is Ipopt" in log else log
-    lines = ("This is Ipopt" + first).splitlines()
+    if "This is Ipopt" not in log:
+        raise PluginError("docs: the bundled fit's ipopt.log holds no IPOPT solve")
+    lines = ("This is Ipopt" + log.split("This is Ipopt")[1]).splitlines()
     iterations = [ln for ln in lines if IPOPT_ITERATION.match(ln)]
     keep, shown = [], set()
     for ln in lines:
@@ -304,7 +305,10 @@ def output_excerpt(name: str, root: Path) -> str:
     text = path.read_text(encoding="utf-8")
     if name == "summary.json":
         data = json.loads(text)
-        data["gait_file"] = ".../" + Path(data["gait_file"]).relative_to(root).as_posix()
+        gait = Path(data["gait_file"])
+        if not gait.is_relative_to(root):
+            raise PluginError(f"docs: the bundled fit read {gait}, outside the repository")
+        data["gait_file"] = ".../" + gait.relative_to(root).as_posix()
         text = json_excerpt(data)
     elif name == "curves.csv":
         rows = text.strip().splitlines()
@@ -426,20 +430,37 @@ def on_files(files, config):
 ARITHMATEX = re.compile(r'<(span|div) class="arithmatex">\\([(\[])(.*?)\\[)\]]</\1>', re.S)
 
 
-def tex_to_mathml(match: re.Match) -> str:
-    """One arithmatex element with its TeX replaced by MathML (inline or display)."""
+#: a TeX command latex2mathml did not know: it leaves it as the text of an element
+UNKNOWN_COMMAND = re.compile(r">(\\[A-Za-z]+)<")
+#: text that latex2mathml writes into an element unescaped (``\text{a<b}``)
+MATHML_TEXT = re.compile(r"(<mtext[^>]*>)(.*?)(</mtext>)", re.S)
+
+
+def tex_to_mathml(match: re.Match, where: str = "") -> str:
+    """One arithmatex element with its TeX replaced by MathML (inline or display); a
+    formula latex2mathml rejects, or one with a command it does not know (left as text),
+    fails the build, naming the page ``where`` and the formula."""
     from latex2mathml.converter import convert
 
     tag, opening, tex = match.groups()
-    mathml = convert(html.unescape(tex).strip(), display="block" if opening == "[" else "inline")
-    if "<merror" in mathml:
-        raise PluginError(f"docs: the formula {tex!r} is not TeX that latex2mathml reads")
+    source = html.unescape(tex).strip()
+    try:
+        mathml = convert(source, display="block" if opening == "[" else "inline")
+    except Exception as exc:  # the library's own errors: name the page and the formula
+        raise PluginError(f"docs: {where}: the formula {source!r} is not TeX that "
+                          f"latex2mathml reads ({type(exc).__name__}: {exc})") from exc
+    unknown = UNKNOWN_COMMAND.search(mathml)
+    if unknown:
+        raise PluginError(f"docs: {where}: the formula {source!r} has a command latex2mathml "
+                          f"does not know: {unknown.group(1)}")
+    mathml = MATHML_TEXT.sub(lambda m: m.group(1) + html.escape(m.group(2), quote=False)
+                             + m.group(3), mathml)
     return f'<{tag} class="arithmatex">{mathml}</{tag}>'
 
 
 def on_page_content(html_text, page, config, files):
     """Every formula of the page as MathML (the module docstring)."""
-    return ARITHMATEX.sub(tex_to_mathml, html_text)
+    return ARITHMATEX.sub(lambda m: tex_to_mathml(m, page.file.src_uri), html_text)
 
 
 def on_page_markdown(markdown, page, config, files):

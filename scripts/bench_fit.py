@@ -218,6 +218,13 @@ def main(argv=None) -> int:
         files = ["female_fast.csv", *sorted(str(p) for p in (ROOT / "data" / "subjects").glob(
             "*_fast.csv"))]
     files = [f for f in files if args.only in Path(f).name]
+    sides = [isinstance(load_gait_file(f), SideCurves) for f in files]
+    if any(sides) and not all(sides):
+        raise SystemExit("error: per-side and one-curve files in one run: their rows and "
+                         "targets differ (run them apart)")
+    if any(sides) and args.process:
+        raise SystemExit("error: --process measures one-curve files (pdw-fit's summary of a "
+                         "per-leg fit has other fields)")
     overrides = parse_set(args.set)
     if args.process and overrides:
         raise SystemExit("error: --process measures the command's defaults (no --set)")
@@ -228,7 +235,10 @@ def main(argv=None) -> int:
         print(f"each file as its own pdw-fit process; load average {os.getloadavg()[0]:.2f}")
     else:
         find_fixed_point(problem)  # warm-up: the simulator's libraries
-        warm = bench_one(problem, "female_fast.csv", {**overrides, "max_iter": 1, "rounds": 1})
+        # the first file's kind of fit, one iteration: the rows' times are warm (a per-side
+        # file's first row would otherwise pay for compiling the stride's functions)
+        warm = bench_one(problem, files[0] if files and sides[0] else "female_fast.csv",
+                         {**overrides, "max_iter": 1, "rounds": 1})
         print(f"warm-up done ({warm['wall_s']:.1f} s); options {overrides or 'defaults'}")
     if files and all(f.endswith("_sides.csv") for f in files):
         print(f"{'file':22s} {'wall':>6s} {'fit':>6s} {'status':16s} {'iter':>11s}   "

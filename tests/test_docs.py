@@ -746,6 +746,24 @@ def test_every_formula_of_the_site_is_mathml_and_no_script_is_fetched(api_site):
     assert formulas >= 100
 
 
+def test_a_formula_with_an_unknown_command_fails_the_build():
+    """docs/hooks.py's tex_to_mathml: a misspelt command (``\\lamda``, which latex2mathml
+    would leave as text) and TeX the library rejects fail with the page's name; text with
+    a "<" is escaped in the MathML."""
+    from mkdocs.exceptions import PluginError
+
+    hooks = _load(DOCS / "hooks.py", "_docs_hooks")
+
+    def convert(tex):
+        m = hooks.ARITHMATEX.search(f'<span class="arithmatex">\\({tex}\\)</span>')
+        return hooks.tex_to_mathml(m, "model.md")
+
+    assert "<math" in convert(r"\lambda x") and "<mi>&#x003BB;</mi>" in convert(r"\lambda")
+    with pytest.raises(PluginError, match=r"model\.md.*\\lamda"):
+        convert(r"\lamda x")
+    assert "a&lt;b" in convert(r"\text{a&lt;b}")
+
+
 def test_the_width_rule_catches_a_wide_line_and_spares_wrapped_output():
     """The parser of the test above: a 90-column code line is found; the same line in a
     notebook's wrapped output block is not held to the width."""
@@ -778,11 +796,34 @@ def test_a_json_excerpt_keeps_every_top_field_and_cuts_long_inner_ones():
     assert back["a"] == 1 and back["short"] == [1, 2] and back[f"f{n - 1}"] == n - 1
 
 
+def test_an_ipopt_excerpt_keeps_the_sizes_and_the_first_solves_ends():
+    """docs/hooks.py's ipopt_excerpt: of a log of two solves, the first one's sizes, its
+    iteration table's head, first two and last iterations and its end; a log without a
+    solve fails the build."""
+    from mkdocs.exceptions import PluginError
+
+    hooks = _load(DOCS / "hooks.py", "_docs_hooks")
+    iteration = "{:4d}  3.4450473e-01 1.86e-08 1.00e+00   0.0 0.00e+00    -  0.00e+00 " \
+                "0.00e+00   0"
+    solve = ["This is Ipopt version 3.14.19, running with linear solver MUMPS 5.8.2.", "",
+             "Total number of variables............................:     2842",
+             "iter    objective    inf_pr   inf_du lg(mu)  ||d||  lg(rg) alpha_du alpha_pr  ls",
+             *(iteration.format(k) for k in range(6)), "",
+             "Number of Iterations....: 5", "EXIT: Optimal Solution Found."]
+    text = hooks.ipopt_excerpt("\n".join(solve + [ln.replace("5", "7") for ln in solve]))
+    lines = text.splitlines()
+    assert lines[0].startswith("This is Ipopt") and lines[1].endswith("2842")
+    assert lines[3:7] == [iteration.format(0), iteration.format(1), "...", iteration.format(5)]
+    assert lines[-2:] == ["Number of Iterations....: 5", "EXIT: Optimal Solution Found."]
+    with pytest.raises(PluginError):
+        hooks.ipopt_excerpt("no solve here")
+
+
 def test_the_outputs_page_shows_the_builds_own_fit(api_site):
     """The outputs page's excerpts are written by the build from the bundled fit it runs
     (``<!-- output: NAME -->``, docs/hooks.py): no marker is left, and the terminal's
-    headline, table.md's row of the fit and summary.json's fields agree (one run), with the
-    IPOPT log's iteration count equal to table.md's."""
+    headline, table.md's row of the fit and summary.json's fields agree (one run), and the
+    IPOPT log's excerpt (its first solve) has the iterations of summary.json's first solve."""
     page = (api_site / "commands" / "outputs" / "index.html").read_text(encoding="utf-8")
     blocks = [html.unescape(re.sub(r"<[^>]+>", "", b))
               for b in re.findall(r"<pre[^>]*>(.*?)</pre>", page, re.S)]
@@ -797,7 +838,9 @@ def test_the_outputs_page_shows_the_builds_own_fit(api_site):
     assert (float(row.group(1)), float(row.group(2))) == (knee, hip)
     fields = dict(re.findall(r'^  "(r2_knee|r2_hip)": (\S+),$', summary, re.M))
     assert round(float(fields["r2_knee"]), 3) == knee and round(float(fields["r2_hip"]), 3) == hip
-    iterations = int(re.search(r"\| IPOPT iterations \(all solves\) \| (\d+) \|", table)
-                     .group(1))
-    assert int(re.search(r"Number of Iterations\.+: +(\d+)", log).group(1)) <= iterations
+    # the log's excerpt is its first solve: summary.json's first solve
+    first = int(re.search(r'"solves": \[\s*\{[^}]*?"iterations": (\d+)', summary).group(1))
+    assert int(re.search(r"Number of Iterations\.+: +(\d+)", log).group(1)) == first
+    total = int(re.search(r"\| IPOPT iterations \(all solves\) \| (\d+) \|", table).group(1))
+    assert first <= total
     assert terminal.rstrip().endswith("wrote fit")

@@ -438,7 +438,8 @@ def test_7_problem_toml_makes_its_header_comments():
 
     pb = load_problem("humanlike_6link")
     for header in ("10 % lighter: data/corpus/WBDS09_sides.csv",
-                   "two lines\n# and a comment\n", "# written by pdw-design\n"):
+                   "two lines\n# and a comment\n", "# written by pdw-design\n",
+                   "a form feed\x0c and a vertical tab\x0b inside\r"):
         text = problem_toml(pb, header)
         data = tomllib.loads(text)
         assert data["compliance"] == {k: float(v) for k, v in pb.compliance.items()}

@@ -493,3 +493,34 @@ def test_an_unstable_start_is_brought_down_by_relaxed_bounds(problem):
         assert solver.relaxed_bounds(nlp.w0) == []
         solver.opts = FitOptions(verbose=False, max_radius=max_radius, radius_stage_ratio=None)
         assert solver.relaxed_bounds(nlp.w0) == []
+
+
+def test_the_relaxed_solves_run_loosest_first_and_leave_the_fits_bound(problem):
+    """relax_stability from the paper walker's unstable gait: one solve per relaxed bound,
+    loosest first, each recorded with its bound and at most the iterations it was given;
+    the solver's own bound is untouched (each solve's bound is its own copy); what it
+    returns is a whole iterate of the NLP (or None). A ratio of 1 or less is refused when
+    the options are made."""
+    from pdw_casadi.fit.core import StepFit
+    from pdw_casadi.fit.rounds import relax_stability
+    from pdw_casadi.nlp.driver import FeasibleIterate
+
+    with pytest.raises(ValueError, match="radius_stage_ratio"):
+        FitOptions(radius_stage_ratio=1.0)
+    human = load_gait_curves("female_fast.csv")
+    fp = find_fixed_point(problem)
+    opts = FitOptions(verbose=False, max_radius=0.6, radius_stage_ratio=1.3,
+                      radius_stage_iter=2, max_iter=3)
+    fit = StepFit(problem, human, opts, 0, "problem", fp.spectral_radius)
+    nlp = fit.nlp(fp.state, fp.parameters)
+    solver = fit.solver(nlp)
+    stages = solver.relaxed_bounds(nlp.w0)
+    assert len(stages) >= 2
+    solves = []
+    point = relax_stability(fit, nlp, solver, solves, log=lambda m: None)
+    assert [s.stage_bound for s in solves] == stages[:len(solves)]
+    assert all(s.iterations <= 2 for s in solves)
+    assert solver.ubg[-1] == opts.radius_bound()
+    # the iterate the fit's own solve goes on from: all of the NLP's unknowns
+    assert point is None or (isinstance(point, FeasibleIterate)
+                             and point.x.size == solver.x.shape[0])

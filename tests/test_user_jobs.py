@@ -348,15 +348,18 @@ def test_seed_refuses_bad_input_and_writes_nothing(tmp_path, capsys, args, fragm
 
 def test_seed_toes_continues_the_walker_given_by_state_and_compliance(tmp_path, capsys):
     """``--state`` and ``--compliance`` (a fit's summary.json, or a table) set the toe
-    walker the continuation starts from: its first point has the overridden value, and it
-    is a fixed point of that walker (converged, a finite spectral radius)."""
+    walker the continuation starts from: its first point has the overridden value, it is
+    a fixed point of that walker (converged, a finite spectral radius), and the record
+    names the file the values came from."""
     comp = tmp_path / "c.json"
     comp.write_text(json.dumps({"k_clutch": 14.0}))
     out = tmp_path / "c"
     code, _, err = run(capsys, seed_main, ["toes", "--compliance", str(comp), "--continue",
                                            "k_clutch", "14.1", "2", "--out", str(out)])
     assert code == 0, err
-    points = json.loads((out / "continuation.json").read_text())["continuation"]
+    record = json.loads((out / "continuation.json").read_text())
+    assert record["problem"] == f"humanlike_toes (compliance from {comp})"
+    points = record["continuation"]
     assert points[0]["k_clutch"] == 14.0 and points[-1]["k_clutch"] == pytest.approx(14.1)
     assert points[0]["converged"] and math.isfinite(points[0]["rho"])
 

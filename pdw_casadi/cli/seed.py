@@ -177,7 +177,8 @@ def _toes_arguments(parser: argparse.ArgumentParser) -> None:
                         "table; a summary.json of this toolkit also works (e.g. a fit's)")
     t.add_argument("--compliance", type=Path, metavar="FILE",
                    help="compliance overrides of the walker, a JSON/TOML table; a "
-                        "summary.json also works (the problem's compliance_bounds apply)")
+                        "summary.json also works (the problem's compliance_bounds apply; "
+                        "a scan draws its sampled keys anew)")
     t.add_argument("--samples", type=int_range("--samples", 1, 1_000_000), metavar="N",
                    help=f"compliance samples (default: {TOES_DEFAULTS.samples})")
     t.add_argument("--seed", type=int_range("--seed", 0, 2**32 - 1), metavar="N",
@@ -282,6 +283,11 @@ def _search(args: argparse.Namespace, request, problem: Problem | None, human,
     if args.search == "heeloff":
         return run_heeloff_seed(request, human, log)
     request, name = request
+    # the record names where the walker's state and compliance came from
+    given = [f"{what} from {path}" for what, path in (("state", args.state),
+                                                      ("compliance", args.compliance)) if path]
+    if given:
+        name = f"{name} ({', '.join(given)})"
     if isinstance(request, ToesContinuation):
         return run_toes_continuation(problem, request, label=name, log=log)
     return run_toes_scan(problem, request, label=name, log=log)

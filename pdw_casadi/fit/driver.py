@@ -141,7 +141,7 @@ class FitSolver:
             bound = opts.radius_bound() if radius_bound is None else radius_bound
             self.ubg = np.r_[self.ubg, bound]
             # a stride's row is the per-step bound squared: so is its iterates' cap
-            self.per_step = radius_bound is not None
+            self.squared_row = radius_bound is not None
             self.bound = bound
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
@@ -253,7 +253,7 @@ class FitSolver:
     def _per_step(self, v: float) -> float:
         """A stability row value in per-step units (a stride's row is the per-step value
         squared)."""
-        return math.sqrt(v) if self.per_step else v
+        return math.sqrt(v) if self.squared_row else v
 
     def relaxed_bounds(self, w0) -> list[float]:
         """The stability row's relaxed bounds of the continuation from the start ``w0``
@@ -265,14 +265,13 @@ class FitSolver:
         ratio = self.opts.radius_stage_ratio
         if self.row is None or ratio is None:
             return []
-        if ratio <= 1:
-            raise ValueError(f"radius_stage_ratio must exceed 1, got {ratio}")
         r0 = self.row.value(np.clip(w0, self.lo, self.hi))
         bound = self._per_step(self.bound)
         if not np.isfinite(r0) or self._per_step(r0) <= ratio * bound:
             return []
         n = math.ceil(math.log(self._per_step(r0) / bound) / math.log(ratio))
-        return [(bound * ratio ** k) ** (2 if self.per_step else 1) for k in range(n - 1, 0, -1)]
+        return [(bound * ratio ** k) ** (2 if self.squared_row else 1)
+                for k in range(n - 1, 0, -1)]
 
     def solve(self, w0, warm: FeasibleIterate | None = None, bound: float | None = None,
               max_iter: int | None = None) -> dict:
@@ -305,10 +304,10 @@ class FitSolver:
             r0 = self.row.value(w0)
             top = max(root(bound), root(r0) if np.isfinite(r0) else 0.0)
             cap = top + opts.iterate_radius_slack
-            self.cap[0] = cap ** 2 if self.per_step else cap
+            self.cap[0] = cap ** 2 if self.squared_row else cap
             if opts.ratchet_cap:
                 low = root(bound) + opts.iterate_radius_slack
-                ratchet = (self.cap, low ** 2 if self.per_step else low)
+                ratchet = (self.cap, low ** 2 if self.squared_row else low)
         progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, ubg, self.lbx,
                             self.ubx, self.r2_of, self.row is not None,
                             self.log if opts.verbose else None,

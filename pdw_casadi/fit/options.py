@@ -196,6 +196,11 @@ class FitOptions:
     #: the per-leg fit's start: "fit" (the symmetric fit to the mean of both sides) or "atlas"
     start: str = "fit"
 
+    def __post_init__(self):
+        if self.radius_stage_ratio is not None and not self.radius_stage_ratio > 1:
+            raise ValueError(f"radius_stage_ratio must exceed 1 (or be None), got "
+                             f"{self.radius_stage_ratio}")
+
     def targets(self) -> tuple[str, str]:
         return ("knee", self.hip_target)
 

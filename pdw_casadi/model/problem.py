@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -373,9 +374,11 @@ def problem_toml(problem: Problem, header: str = "") -> str:
                 lines.append(f"{k} = {float(v)!r}")
         return "\n".join(lines) + "\n"
 
-    # a header line that is not a comment would make the file unreadable
-    head = "".join(line if line.lstrip().startswith("#") or not line.strip() else f"# {line}"
-                   for line in header.splitlines(keepends=True))
+    # a header line that is not a comment would make the file unreadable, and so would a
+    # control character in a comment (TOML forbids them)
+    lines = [re.sub(r"[\x00-\x08\x0b-\x1f\x7f]", "", line) for line in header.split("\n")]
+    head = "\n".join(line if line.lstrip().startswith("#") or not line.strip() else f"# {line}"
+                     for line in lines)
     if head and not head.endswith("\n"):
         head += "\n"
     parts = [head] if head else []
