@@ -242,7 +242,7 @@ def bundled_fit(root: Path) -> Path:
 OUTPUT = re.compile(r"^<!-- output: ([a-z.]+) -->$", re.MULTILINE)
 #: the longest dict or list printed whole in a JSON excerpt; longer ones keep their first
 #: two entries and the last, with "..." between
-JSON_KEEP = 10
+JSON_KEEP = 12
 
 
 def json_excerpt(value, indent: int = 0, width: int = CODE_COLUMNS, key: str | None = None
@@ -436,6 +436,13 @@ UNKNOWN_COMMAND = re.compile(r">(\\[A-Za-z]+)<")
 MATHML_TEXT = re.compile(r"(<mtext[^>]*>)(.*?)(</mtext>)", re.S)
 
 
+def _escape_text(text: str) -> str:
+    """``text`` of an element as markup: ``<``, ``>`` and a bare ``&`` escaped, the
+    entities latex2mathml writes itself (a space as ``&#x000A0;``) kept."""
+    text = re.sub(r"&(?!#?\w+;)", "&amp;", text)
+    return text.replace("<", "&lt;").replace(">", "&gt;")
+
+
 def tex_to_mathml(match: re.Match, where: str = "") -> str:
     """One arithmatex element with its TeX replaced by MathML (inline or display); a
     formula latex2mathml rejects, or one with a command it does not know (left as text),
@@ -453,8 +460,8 @@ def tex_to_mathml(match: re.Match, where: str = "") -> str:
     if unknown:
         raise PluginError(f"docs: {where}: the formula {source!r} has a command latex2mathml "
                           f"does not know: {unknown.group(1)}")
-    mathml = MATHML_TEXT.sub(lambda m: m.group(1) + html.escape(m.group(2), quote=False)
-                             + m.group(3), mathml)
+    mathml = MATHML_TEXT.sub(lambda m: m.group(1) + _escape_text(m.group(2)) + m.group(3),
+                             mathml)
     return f'<{tag} class="arithmatex">{mathml}</{tag}>'
 
 

@@ -240,7 +240,7 @@ def main(argv=None) -> int:
         warm = bench_one(problem, files[0] if files and sides[0] else "female_fast.csv",
                          {**overrides, "max_iter": 1, "rounds": 1})
         print(f"warm-up done ({warm['wall_s']:.1f} s); options {overrides or 'defaults'}")
-    if files and all(f.endswith("_sides.csv") for f in files):
+    if files and all(sides):
         print(f"{'file':22s} {'wall':>6s} {'fit':>6s} {'status':16s} {'iter':>11s}   "
               f"{'knee':>6s} {'hip':>6s}   {'knee':>6s} {'hip':>6s} {'rho2':>6s} "
               f"{'resim':>8s} | targets (L: left leg, R: right, rho2: the stride's)",

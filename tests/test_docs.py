@@ -729,7 +729,7 @@ def test_every_formula_of_the_site_is_mathml_and_no_script_is_fetched(api_site):
     arithmatex element still holds TeX, the model page's formulas are there (its power
     bound's norm, the Frobenius subscript), and no page loads a script from another host
     (the math needs no network)."""
-    tex_left, remote = [], []
+    tex_left, remote, escaped = [], [], []
     formulas = 0
     for page in sorted(api_site.rglob("*.html")):
         text = page.read_text(encoding="utf-8")
@@ -739,7 +739,10 @@ def test_every_formula_of_the_site_is_mathml_and_no_script_is_fetched(api_site):
         remote += [f"{rel}: {src}" for src in
                    re.findall(r'<script[^>]+src="((?:https?:)?//[^"]+)"', text)]
         formulas += text.count("<math ")
+        escaped += [f"{rel}: {m}" for m in re.findall(r"<mtext>[^<]*&amp;#x[^<]*</mtext>", text)]
     assert not tex_left, "formulas left as TeX:\n" + "\n".join(tex_left[:20])
+    # latex2mathml's own entities (a space of \text{foot COM}) not escaped once more
+    assert not escaped, "entities escaped twice:\n" + "\n".join(escaped[:20])
     assert not remote, "scripts from another host:\n" + "\n".join(remote[:20])
     model = (api_site / "model" / "index.html").read_text(encoding="utf-8")
     assert model.count("<math ") >= 10 and "<mi>F</mi>" in model
@@ -749,7 +752,7 @@ def test_every_formula_of_the_site_is_mathml_and_no_script_is_fetched(api_site):
 def test_a_formula_with_an_unknown_command_fails_the_build():
     """docs/hooks.py's tex_to_mathml: a misspelt command (``\\lamda``, which latex2mathml
     would leave as text) and TeX the library rejects fail with the page's name; text with
-    a "<" is escaped in the MathML."""
+    a "<" or a bare "&" is escaped in the MathML, the library's own entities kept."""
     from mkdocs.exceptions import PluginError
 
     hooks = _load(DOCS / "hooks.py", "_docs_hooks")
@@ -761,7 +764,11 @@ def test_a_formula_with_an_unknown_command_fails_the_build():
     assert "<math" in convert(r"\lambda x") and "<mi>&#x003BB;</mi>" in convert(r"\lambda")
     with pytest.raises(PluginError, match=r"model\.md.*\\lamda"):
         convert(r"\lamda x")
+    with pytest.raises(PluginError, match=r"model\.md.*not TeX that latex2mathml reads"):
+        convert("x^")  # a superscript without its argument: the library's own error
     assert "a&lt;b" in convert(r"\text{a&lt;b}")
+    # its own entities (a space in text) kept, a bare "&" escaped
+    assert "<mtext>a&#x000A0;&amp;&#x000A0;b</mtext>" in convert(r"\text{a &amp; b}")
 
 
 def test_the_width_rule_catches_a_wide_line_and_spares_wrapped_output():

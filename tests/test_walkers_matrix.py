@@ -154,7 +154,7 @@ def _fit_param(n):
     # the ankle walkers' fits take 20 s to 3 min each (docs/results/timing.md)
     marks = [pytest.mark.slow]
     if n in FIT_FAILS:
-        # the failure is the command's no-gait verdict (its exit code), not a crash
+        # the failure is a failed assertion of the test (the no-gait verdict), not a crash
         marks.append(pytest.mark.xfail(strict=True, raises=AssertionError, reason=FIT_FAILS[n]))
     return pytest.param(n, marks=marks)
 

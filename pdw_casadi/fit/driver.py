@@ -13,6 +13,7 @@ import numpy as np
 from pdw_casadi.engine import interrupt
 from pdw_casadi.fit.objective import curve_errors
 from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.gait.stability import map_radius, step_radius
 from pdw_casadi.gait.timing import human_timing, phase_contacts
 from pdw_casadi.nlp.driver import (
     FeasibleIterate,
@@ -141,7 +142,9 @@ class FitSolver:
             bound = opts.radius_bound() if radius_bound is None else radius_bound
             self.ubg = np.r_[self.ubg, bound]
             # a stride's row is the per-step bound squared: so is its iterates' cap
-            self.squared_row = radius_bound is not None
+            #: the steps of the row's map: 2 for a stride (its row is the per-step bound
+            #: squared, map_radius), else 1
+            self.row_steps = 2 if radius_bound is not None else 1
             self.bound = bound
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]
@@ -253,7 +256,7 @@ class FitSolver:
     def _per_step(self, v: float) -> float:
         """A stability row value in per-step units (a stride's row is the per-step value
         squared)."""
-        return math.sqrt(v) if self.squared_row else v
+        return step_radius(v, self.row_steps)
 
     def relaxed_bounds(self, w0) -> list[float]:
         """The stability row's relaxed bounds of the continuation from the start ``w0``
@@ -270,8 +273,7 @@ class FitSolver:
         if not np.isfinite(r0) or self._per_step(r0) <= ratio * bound:
             return []
         n = math.ceil(math.log(self._per_step(r0) / bound) / math.log(ratio))
-        return [(bound * ratio ** k) ** (2 if self.squared_row else 1)
-                for k in range(n - 1, 0, -1)]
+        return [map_radius(bound * ratio ** k, self.row_steps) for k in range(n - 1, 0, -1)]
 
     def solve(self, w0, warm: FeasibleIterate | None = None, bound: float | None = None,
               max_iter: int | None = None) -> dict:
@@ -304,10 +306,10 @@ class FitSolver:
             r0 = self.row.value(w0)
             top = max(root(bound), root(r0) if np.isfinite(r0) else 0.0)
             cap = top + opts.iterate_radius_slack
-            self.cap[0] = cap ** 2 if self.squared_row else cap
+            self.cap[0] = map_radius(cap, self.row_steps)
             if opts.ratchet_cap:
                 low = root(bound) + opts.iterate_radius_slack
-                ratchet = (self.cap, low ** 2 if self.squared_row else low)
+                ratchet = (self.cap, map_radius(low, self.row_steps))
         progress = Progress(self.x.shape[0], self.lbg.size, self.lbg, ubg, self.lbx,
                             self.ubx, self.r2_of, self.row is not None,
                             self.log if opts.verbose else None,

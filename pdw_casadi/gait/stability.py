@@ -17,6 +17,8 @@ Who reads these: the fit (``FitOptions.max_radius``, ``radius_margin`` and
 
 from __future__ import annotations
 
+import math
+
 #: the largest accepted spectral radius of the Poincare map per step (dimensionless): the
 #: fit's verdict (``FitOptions.max_radius``, ``pdw-fit --max-radius``). A map of n steps is
 #: accepted at MAX_RADIUS ** n (:func:`map_radius`). 0.91 so that the fit's NLP bound,
@@ -44,3 +46,12 @@ def map_radius(per_step: float, steps: int = 1) -> float:
     ``per_step`` per step: ``per_step ** steps`` (the map's Jacobian is the product of its
     steps' Jacobians). The one rule by which a stride's radius is held to a step's."""
     return per_step ** steps
+
+
+def step_radius(radius: float, steps: int = 1) -> float:
+    """The per-step spectral radius (dimensionless) of a map of ``steps`` steps with
+    spectral radius ``radius``: the inverse of :func:`map_radius` (a square root for a
+    stride)."""
+    if steps == 1:
+        return radius
+    return math.sqrt(radius) if steps == 2 else radius ** (1.0 / steps)
