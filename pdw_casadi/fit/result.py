@@ -13,6 +13,7 @@ from pdw_casadi.gait.curves import cycle_curves, fit_scores, gait_cycle
 from pdw_casadi.gait.fixed_point import FixedPointResult, find_fixed_point, own_fixed_point
 from pdw_casadi.gait.poincare import PoincareMap
 from pdw_casadi.gait.simulate import Simulator
+from pdw_casadi.gait.stability import step_radius
 from pdw_casadi.gait.timing import step_timing, timing_or_none
 from pdw_casadi.model.gait_data import SIDES
 from pdw_casadi.nlp.driver import succeeded
@@ -99,7 +100,7 @@ class Candidate:
     def per_step_radius(self) -> float:
         """The spectral radius per step: rho^(1/steps) of the ``steps``-step map's rho."""
         rho = self.fixed_point.spectral_radius
-        return rho if self.steps == 1 else rho ** (1.0 / self.steps)
+        return step_radius(rho, self.steps)
 
     @property
     def stable(self) -> bool:

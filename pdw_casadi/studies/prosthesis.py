@@ -56,7 +56,7 @@ from pdw_casadi.gait.design import (
     symmetry_conditions,
 )
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
-from pdw_casadi.gait.stability import RADIUS_BOUND, RADIUS_MARGIN, map_radius
+from pdw_casadi.gait.stability import RADIUS_BOUND, RADIUS_MARGIN, map_radius, step_radius
 from pdw_casadi.gait.stride import (
     find_stride_fixed_point,
     physical_parameter_names,
@@ -142,7 +142,7 @@ class ProsthesisResult:
     @property
     def step_radius(self) -> float:
         """sqrt of the stride map's spectral radius: the per-step equivalent (-)."""
-        return math.sqrt(self.fixed_point.spectral_radius)
+        return step_radius(self.fixed_point.spectral_radius, 2)
 
     def design_at(self, lighter: float, side: str = "right") -> tuple[Problem, np.ndarray]:
         """The designed walker at an accepted point ``lighter`` (-) of the homotopy's
@@ -331,7 +331,7 @@ class DesignNLPOptions:
     @property
     def max_step_radius(self) -> float:
         """The per-step spectral radius of the verdict: a stride is two steps."""
-        return math.sqrt(self.max_stride_radius)
+        return step_radius(self.max_stride_radius, 2)
 
     def check_symmetry_tol(self) -> None:
         """Raise :class:`ProblemError` unless the NLP's symmetry tolerance lies inside the

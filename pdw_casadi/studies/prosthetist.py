@@ -34,6 +34,7 @@ from pdw_casadi.engine.errors import NoGait
 from pdw_casadi.fit import FitOptions, fit_gait
 from pdw_casadi.gait.curves import fit_scores
 from pdw_casadi.gait.fixed_point import FIXED_POINT_TOL
+from pdw_casadi.gait.stability import step_radius
 from pdw_casadi.gait.stride import find_stride_fixed_point, stride_map, stride_report
 from pdw_casadi.model.gait_data import SideCurves
 from pdw_casadi.model.problem import Problem
@@ -98,7 +99,7 @@ def study_row(walker: Problem, x, sides: SideCurves, lighter: float) -> dict:
     rep = stride_report(smap, fp.state, fp.parameters)
     human = sides.side(SOUND)
     row.update(stride_radius=fp.spectral_radius,
-               step_radius=math.sqrt(fp.spectral_radius),
+               step_radius=step_radius(fp.spectral_radius, 2),
                valid=bool(fp.valid),
                step_length_asymmetry_pct=rep["step_length_asymmetry_pct"],
                step_time_asymmetry_pct=rep["step_time_asymmetry_pct"],
