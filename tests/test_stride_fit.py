@@ -280,3 +280,30 @@ def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     assert set(summary["legs"]["right"]["compliance"]) == set(atlas_problem().compliance)
     for name in ("summary.json", "curves.csv", "fit.png", "table.md"):
         assert (out / name).is_file()
+
+
+def test_the_strides_row_at_a_symmetric_gait_is_the_steps_squared(fitted):
+    """The stride's stability row bounds the growth of a perturbation over the same steps
+    as the one step's (FitOptions.row_power): at the symmetric fitted gait, where the
+    stride's Poincare Jacobian is the step's squared, the stride's row is the step's row
+    squared to 1e-6 relative, so the stride's bound (the per-step bound squared) holds
+    exactly where the step's does. The stride's row over twice the steps (the power the
+    step uses, on the stride's map) is a looser bound there by more than 5 %: a stride
+    started on the step's active bound would start far inside its own."""
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.nlp.stability import StabilityRow, power_bound
+
+    *_, one, stride = fitted
+    opts = FitOptions()
+    assert (opts.row_power(1), opts.row_power(2)) == (opts.stability_power,
+                                                      opts.stability_power // 2)
+    step = StabilityRow(one, bound="power", power=opts.row_power(1))
+    both = StabilityRow(stride, bound="power", power=opts.row_power(2))
+    r1, r2 = step.value(one.w0), both.value(stride.w0)
+    J1, J2 = step.poincare_jacobian(one.w0), both.poincare_jacobian(stride.w0)
+    assert np.allclose(J2, J1 @ J1, rtol=1e-6, atol=1e-8 * np.abs(J1).max())
+    assert abs(r2 - r1 ** 2) < 1e-6 * r1 ** 2, (r1, r2)
+    loose, _ = power_bound(J2, opts.stability_power)
+    assert loose < 0.95 * r1 ** 2, (loose, r1 ** 2)
+    with pytest.raises(ValueError, match="power of two"):
+        FitOptions(stability_power=6).row_power(2)

@@ -126,7 +126,11 @@ class FitSolver:
         self.p = np.concatenate(values) if values else np.zeros(0)
         self.n_w = nlp.w.shape[0]
         self.x = ca.vertcat(nlp.w, self.e)
-        self.row = StabilityRow(nlp, bound=opts.stability_bound, power=opts.stability_power) \
+        #: the steps of the row's map: 2 for a stride (its row is the per-step bound
+        #: squared, map_radius), else 1
+        self.row_steps = 2 if radius_bound is not None else 1
+        self.row = StabilityRow(nlp, bound=opts.stability_bound,
+                                power=opts.row_power(self.row_steps)) \
             if opts.stability_constraint and nlp.free else None
         self.cap = [None]  # set per solve (FitOptions.iterate_radius_slack)
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
@@ -141,10 +145,6 @@ class FitSolver:
             self.lbg = np.r_[self.lbg, -np.inf]
             bound = opts.radius_bound() if radius_bound is None else radius_bound
             self.ubg = np.r_[self.ubg, bound]
-            # a stride's row is the per-step bound squared: so is its iterates' cap
-            #: the steps of the row's map: 2 for a stride (its row is the per-step bound
-            #: squared, map_radius), else 1
-            self.row_steps = 2 if radius_bound is not None else 1
             self.bound = bound
         self.lbx = np.r_[self.lo, np.full(ne, -np.inf)]
         self.ubx = np.r_[self.hi, np.full(ne, np.inf)]

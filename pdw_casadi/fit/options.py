@@ -60,7 +60,8 @@ class FitOptions:
     radius_margin: float = RADIUS_MARGIN
     stability_constraint: bool = True
     #: the stability row: "power" (||J^k||_F^(1/k), k = ``stability_power``: no
-    #: perturbation grows by more than the bound^k over k steps, which implies rho <= bound),
+    #: perturbation grows by more than the bound^k over k steps, which implies rho <= bound;
+    #: a stride's row covers the same k steps: :meth:`row_power`),
     #: "schur" (rho_32 of the eigenvalue moduli, smooth where the leading pair meets the real
     #: axis: pdw_casadi.nlp.stability.schur_radius) or "eigenvalues" (rho_32 itself).
     #: A bound on the spectral radius alone lets the NLP's answer sit where I - J is nearly
@@ -220,6 +221,21 @@ class FitOptions:
         return Stall(self.stall_window, self.stall_rtol, self.stall_infeasibility,
                      plateau_infeasibility=self.stall_plateau_infeasibility,
                      wander=self.stall_wander)
+
+    def row_power(self, steps: int = 1) -> int:
+        """The power k of the stability row ||M^k||_F^(1/k) on the map M of ``steps`` steps:
+        ``stability_power / steps``, so that every row bounds the growth of a perturbation
+        over the same ``stability_power`` steps. Then a stride's row at a symmetric gait
+        (M = J^2) is the one step's row squared, the stride's bound (the per-step bound
+        squared) holds exactly where the step's does, and a stride NLP started at a step's
+        answer starts on the same constraint with the same multiplier."""
+        if self.stability_bound != "power":
+            return self.stability_power  # unused by the other rows
+        k, rem = divmod(self.stability_power, steps)
+        if rem or k < 1 or k & (k - 1):
+            raise ValueError(f"stability_power {self.stability_power} is not a power of two "
+                             f"times the map's {steps} steps")
+        return k
 
     def radius_bound(self, steps: int = 1) -> float:
         """The NLP's stability-row bound on the map of ``steps`` steps: the per-step bound
