@@ -307,3 +307,18 @@ def test_the_strides_row_at_a_symmetric_gait_is_the_steps_squared(fitted):
     assert loose < 0.95 * r1 ** 2, (loose, r1 ** 2)
     with pytest.raises(ValueError, match="power of two"):
         FitOptions(stability_power=6).row_power(2)
+
+
+def test_a_strides_solve_keeps_its_own_lbfgs_history():
+    """IPOPT's L-BFGS memory is a setting of the fit's options, one for a one-step solve and
+    one for a stride's (FitOptions.lbfgs_history, stride_lbfgs_history); it reaches IPOPT
+    only under the limited-memory Hessian (an exact Hessian has no history)."""
+    from pdw_casadi.fit.options import FitOptions
+    from pdw_casadi.nlp.driver import ipopt_settings
+
+    opts = FitOptions()
+    assert opts.stride_lbfgs_history is not None and opts.stride_lbfgs_history > 6
+    got = ipopt_settings("limited-memory", 10, 1e-8, history=opts.stride_lbfgs_history)
+    assert got["limited_memory_max_history"] == opts.stride_lbfgs_history
+    assert "limited_memory_max_history" not in ipopt_settings("limited-memory", 10, 1e-8)
+    assert "limited_memory_max_history" not in ipopt_settings("exact", 10, 1e-8, history=50)

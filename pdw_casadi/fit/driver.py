@@ -288,7 +288,9 @@ class FitSolver:
         if warm is not None:
             extra.update(opts.warm_ipopt)
         ipopt = ipopt_settings(opts.hessian, opts.max_iter if max_iter is None else max_iter,
-                               opts.tol, {**extra, **opts.ipopt}, opts.log_file)
+                               opts.tol, {**extra, **opts.ipopt}, opts.log_file,
+                               history=opts.stride_lbfgs_history if self.nlp.n_steps > 1
+                               else opts.lbfgs_history)
         if warm is not None:
             w0 = self.unknowns(warm)
         w0 = np.clip(w0, self.lo, self.hi)

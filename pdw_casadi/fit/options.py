@@ -124,6 +124,13 @@ class FitOptions:
     #: the merit function near the objective's (docs/results/fit.md). None: IPOPT's default
     mu_max: float | None = 1e-5
     hessian: str = "limited-memory"
+    #: the curvature pairs IPOPT's L-BFGS keeps (``limited_memory_max_history``; None:
+    #: IPOPT's 6) in a one-step solve and in a stride's. A stride's iterates wandered across
+    #: its stability bound with six: with 50, 6 of 8 per-side fits (four subjects, paper and
+    #: own bodies) converged against 4 of 8, in 14 % less time; a one-step fit took 21 %
+    #: longer with 50 (nine files; docs/results/per-leg-fit.md)
+    lbfgs_history: int | None = None
+    stride_lbfgs_history: int | None = 50
     rounds: int = 2
     consistency_tol: float = 1e-3  # relative gap NLP objective vs re-simulated 1 - R^2
     #: RK4 samples between checked event signs and margins (two per shooting interval of

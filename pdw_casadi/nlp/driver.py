@@ -45,13 +45,16 @@ def succeeded(status: str) -> bool:
 
 
 def ipopt_settings(hessian: str, max_iter: int, tol: float, extra: dict | None = None,
-                   log_file: str | None = None) -> dict:
+                   log_file: str | None = None, history: int | None = None) -> dict:
     """IPOPT's options: ``hessian`` ("limited-memory" or "exact"), ``max_iter``, ``tol``
     (acceptable: 100 tol over 10 iterations), adaptive barrier, silent; ``log_file``: IPOPT's
-    own log (print level 5, appended); ``extra`` overrides any of them."""
+    own log (print level 5, appended); ``history``: the L-BFGS pairs kept (IPOPT's
+    ``limited_memory_max_history``; None: IPOPT's 6); ``extra`` overrides any of them."""
     ipopt = {"hessian_approximation": hessian, "max_iter": max_iter,
              "tol": tol, "acceptable_tol": 100 * tol, "acceptable_iter": 10,
              "print_level": 0, "sb": "yes", "mu_strategy": "adaptive"}
+    if history is not None and hessian == "limited-memory":
+        ipopt["limited_memory_max_history"] = int(history)
     if log_file:
         ipopt.update({"output_file": str(log_file), "file_print_level": 5,
                       "file_append": "yes"})
