@@ -255,7 +255,7 @@ def test_the_accepted_radius_has_one_home():
     assert parser.parse_args([]).max_radius == MAX_RADIUS
 
 
-@pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 8 min on 2 shared cores
+@pytest.mark.slow  # the symmetric start fit and one stride NLP solve: 32 s warm, 2 cores
 def test_pdw_fit_per_side_subject_file(tmp_path, capsys):
     """pdw-fit on a real subject's per-side file: the stride fit re-simulates as a stable
     (stride radius <= 0.91^2) valid stride (20 steps within 1e-6 of the NLP), each leg is
