@@ -1728,6 +1728,42 @@ def test_per_leg_fit_page_sums_of_its_tables(checks):
     checks.verify()
 
 
+def test_per_leg_fit_page_the_strides_row_and_memory(checks):
+    """per-leg-fit.md, the stride's eight-step row and its L-BFGS memory: the totals and
+    counts the prose draws from their tables (whole commands summed, certified answers
+    counted, each table against the one before it)."""
+    name = "per-leg-fit.md"
+
+    def cells(cell: str) -> tuple[bool, Decimal]:
+        """A cell "24 + 79, certified, 80.9 s": certified or not, and the wall time."""
+        m = re.fullmatch(r"[\d +]+, ([\w ,-]+?), \**([\d.]+) s\**", cell)
+        assert m, f"not solves, an outcome and a wall time: {cell!r}"
+        return m.group(1) == "certified", Decimal(m.group(2))
+
+    row = table(name, "whole command (sixteen-step row)")
+    now = [Decimal(numbers(r["whole command (sixteen-step row)"])[0]) for r in row]
+    before = [Decimal(numbers(r["whole command (sixteen-step row)"])[1]) for r in row]
+    total, total_before = passage(name, r"Total NUM s against NUM s; the same two files "
+                                  r"certified")
+    checks.figure(name, total, sum(now), 1, "the eight-step row's total")
+    checks.figure(name, total_before, sum(before), 1, "the sixteen-step row's total")
+    checks.tally(name, "2", [r["certified"] == "yes" for r in row], "certified files")
+
+    mem = table(name, "50 on the stride only: solves, whole command")
+    six = [cells(r["history 6: solves, whole command"]) for r in mem]
+    fifty = [cells(r["50 on the stride only: solves, whole command"]) for r in mem]
+    got = passage(name, r"Certified NUM of NUM against NUM of NUM, NUM s against NUM s in all")
+    checks.tally(name, got[0], [c for c, _ in fifty], "certified with 50")
+    checks.tally(name, got[2], [c for c, _ in six], "certified with 6")
+    checks.truth(name, "eight files in the memory table", got[1] == got[3] == str(len(mem)))
+    checks.figure(name, got[4], sum(w for _, w in fifty), 1, "the total with 50")
+    checks.figure(name, got[5], sum(w for _, w in six), 1, "the total with 6")
+    # its history-6 paper-body rows are the eight-step row's table
+    for r, (_, w), t in zip(mem[:4], six[:4], now, strict=True):
+        checks.truth(name, f"{r['per-side file']}: the same run in both tables", w == t)
+    checks.verify()
+
+
 # -- cohort.md: figures of the stored cohort table ---------------------------------------------
 def test_cohort_page_figures_of_the_stored_cohort(checks):
     """cohort.md: figures the prose draws from ``docs/results/cohort.csv``: the per-side
