@@ -128,7 +128,7 @@ class FitSolver:
         self.x = ca.vertcat(nlp.w, self.e)
         #: the steps of the row's map: 2 for a stride (its row is the per-step bound
         #: squared, map_radius), else 1
-        self.row_steps = 2 if radius_bound is not None else 1
+        self.row_steps = nlp.n_steps
         self.row = StabilityRow(nlp, bound=opts.stability_bound,
                                 power=opts.row_power(self.row_steps)) \
             if opts.stability_constraint and nlp.free else None
@@ -289,7 +289,7 @@ class FitSolver:
             extra.update(opts.warm_ipopt)
         ipopt = ipopt_settings(opts.hessian, opts.max_iter if max_iter is None else max_iter,
                                opts.tol, {**extra, **opts.ipopt}, opts.log_file,
-                               history=opts.stride_lbfgs_history if self.nlp.n_steps > 1
+                               history=opts.stride_lbfgs_history if self.row_steps > 1
                                else opts.lbfgs_history)
         if warm is not None:
             w0 = self.unknowns(warm)

@@ -13,6 +13,16 @@ from pdw_casadi.nlp.multipliers import WARM_IPOPT
 PER_LEG_FIELDS = ("side", "start", "stride_warm_start")
 
 
+def row_power(stability_power: int, steps: int) -> int:
+    """The power k = ``stability_power`` / ``steps`` of a stability row ||M^k||_F^(1/k) on
+    the map M of ``steps`` steps, a power of two (:meth:`FitOptions.row_power`)."""
+    k, rem = divmod(stability_power, steps)
+    if rem or k < 1 or k & (k - 1):
+        raise ValueError(f"stability_power {stability_power} is not a power of two "
+                         f"times the map's {steps} steps")
+    return k
+
+
 @dataclass
 class FitOptions:
     """Settings of :func:`~pdw_casadi.fit.fit_gait`.
@@ -238,11 +248,7 @@ class FitOptions:
         answer starts on the same constraint with the same multiplier."""
         if self.stability_bound != "power":
             return self.stability_power  # unused by the other rows
-        k, rem = divmod(self.stability_power, steps)
-        if rem or k < 1 or k & (k - 1):
-            raise ValueError(f"stability_power {self.stability_power} is not a power of two "
-                             f"times the map's {steps} steps")
-        return k
+        return row_power(self.stability_power, steps)
 
     def radius_bound(self, steps: int = 1) -> float:
         """The NLP's stability-row bound on the map of ``steps`` steps: the per-step bound

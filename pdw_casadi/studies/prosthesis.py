@@ -46,7 +46,7 @@ import numpy as np
 
 from pdw_casadi.engine import interrupt
 from pdw_casadi.engine.resources import bundled_dir
-from pdw_casadi.fit.options import FitOptions
+from pdw_casadi.fit.options import FitOptions, row_power
 from pdw_casadi.gait.design import (
     DesignOptions,
     combined,
@@ -426,9 +426,8 @@ class ProsthesisDesignSolver:
             100 * (L1 - L2) / (0.5 * (L1 + L2)), 100 * (T1 - T2) / (0.5 * (T1 + T2))])
         rows = ca.vertcat(*self.asym(nlp.w))
         self.objective = ca.Function("design_objective", [nlp.w], [obj])
-        fit_row = FitOptions(stability_bound=opts.stability_bound)
         self.row = StabilityRow(nlp, bound=opts.stability_bound,
-                                power=fit_row.row_power(nlp.n_steps))
+                                power=row_power(FitOptions.stability_power, nlp.n_steps))
         self.n_w = nlp.w.shape[0]
         self.nlp_fun, self.jac_g, self._keep = nlp_functions(
             nlp.w, obj, ca.vertcat(nlp.g, rows), self.row, self.n_w, nlp)
