@@ -69,14 +69,15 @@ def corpus_files(sides: bool = False) -> list[str]:
     return files if sides else [f for f in files if not f.endswith("_sides.csv")]
 
 
-def parse_set(items: list[str]) -> dict:
-    """``KEY=VALUE`` pairs of FitOptions fields (VALUE parsed as JSON, else a string)."""
-    names = {f.name for f in fields(FitOptions)}
+def parse_set(items: list[str], options=FitOptions) -> dict:
+    """``KEY=VALUE`` pairs of the dataclass ``options``' fields (VALUE parsed as JSON, else a
+    string)."""
+    names = {f.name for f in fields(options)}
     out = {}
     for item in items:
         key, _, value = item.partition("=")
         if key not in names:
-            raise SystemExit(f"error: FitOptions has no field {key!r}")
+            raise SystemExit(f"error: {options.__name__} has no field {key!r}")
         try:
             out[key] = json.loads(value)
         except ValueError:

@@ -339,3 +339,26 @@ def test_shipped_prosthesis_design_is_stable_valid_and_symmetric(name, lighter):
     rep = stride_report(smap, fp.state, fp.parameters, curves=False)
     assert abs(rep["step_length_asymmetry_pct"]) < 1.0
     assert abs(rep["step_time_asymmetry_pct"]) < 1.0
+
+
+def test_a_design_stepping_stone_is_solved_to_its_own_tolerance():
+    """DesignNLPOptions.ipopt_options: a homotopy step short of the target (a stepping
+    stone) is solved to ``step_tol`` with its rows held to ``step_constr_viol_tol``; the
+    target to ``tol``; a cold start near its point only with ``near_start``, a warm one from
+    the multipliers' settings; by default every step to ``tol`` from IPOPT's own start."""
+    from pdw_casadi.nlp.driver import NEAR_START_IPOPT
+    from pdw_casadi.nlp.multipliers import WARM_IPOPT
+
+    plain = DesignNLPOptions()
+    for stone in (False, True):
+        got = plain.ipopt_options(False, stone)
+        assert got["tol"] == plain.tol and "mu_init" not in got
+    opts = DesignNLPOptions(near_start=True, step_tol=1e-3)
+    stone, target = opts.ipopt_options(False, True), opts.ipopt_options(False, False)
+    assert stone["tol"] == 1e-3 and stone["constr_viol_tol"] == opts.step_constr_viol_tol
+    assert target["tol"] == opts.tol and "constr_viol_tol" not in target
+    assert stone["mu_init"] == NEAR_START_IPOPT["mu_init"] < 0.1  # IPOPT's own is 0.1
+    assert opts.ipopt_options(True, False)["mu_init"] == WARM_IPOPT["mu_init"]
+    # the user's own IPOPT settings win
+    mine = DesignNLPOptions(step_tol=1e-3, ipopt={"tol": 1e-5})
+    assert mine.ipopt_options(False, True)["tol"] == 1e-5

@@ -35,6 +35,13 @@ from pdw_casadi.nlp.stability import StabilityRow
 #: held to it counts as held (the fit's best feasible iterate) and one within it of its
 #: bound as binding (the design's diagnosis)
 IPOPT_TOL = 1e-6
+#: IPOPT's barrier and bound pushes for a solve that starts without multipliers at a point
+#: that is nearly feasible and nearly optimal (a homotopy step started at the last answer):
+#: IPOPT's own (``mu_init`` 0.1, pushes 1e-2 of each bound's size) move such a start deep
+#: into the interior, away from the answer it is next to (measured on the 30 % prosthesis
+#: design, docs/results/prosthesis.md, "Near the start, to a stepping stone's tolerance")
+NEAR_START_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-6, "bound_frac": 1e-6,
+                    "slack_bound_push": 1e-6, "slack_bound_frac": 1e-6}
 #: IPOPT return statuses that count as a solved NLP
 SUCCESS_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 

@@ -66,7 +66,14 @@ from pdw_casadi.gait.stride import (
     with_physical_parameters,
 )
 from pdw_casadi.model.problem import Problem, ProblemError, load_problem
-from pdw_casadi.nlp.driver import IPOPT_TOL, Progress, ipopt_settings, nlp_functions, succeeded
+from pdw_casadi.nlp.driver import (
+    IPOPT_TOL,
+    NEAR_START_IPOPT,
+    Progress,
+    ipopt_settings,
+    nlp_functions,
+    succeeded,
+)
 from pdw_casadi.nlp.multipliers import WARM_IPOPT, bound_multipliers, map_multipliers
 from pdw_casadi.nlp.shooting import ShootingNLP
 from pdw_casadi.nlp.stability import StabilityRow
@@ -339,6 +346,33 @@ class DesignNLPOptions:
     #: warm, the 30 % design's homotopy was rejected at 18.9 and 14.1 %, which it passes
     #: cold; docs/results/prosthesis.md): every step cold
     warm_start: bool = False
+    #: a cold step (no multipliers) starts IPOPT near its starting point, the last answer:
+    #: a small barrier and small bound pushes (:data:`~pdw_casadi.nlp.driver.NEAR_START_IPOPT`).
+    #: Measured on the 30 % design with ``step_tol``: the first step 10 iterations against
+    #: 100, but from the second step on IPOPT's adaptive barrier rises from 1e-4 to 10 and
+    #: the iterates leave (with the barrier capped, the rows active at the last answer are
+    #: pushed off), so the whole design took 674 s against 656 s and came out elsewhere
+    #: (docs/results/prosthesis.md, "Near the start, to a stepping stone's tolerance").
+    #: False: IPOPT's own start
+    near_start: bool = False
+    #: IPOPT's tolerance (``tol``) of a homotopy step that is neither the target nor one of
+    #: ``stops``: such a step is a stepping stone, whose least change the next step moves
+    #: again, and its answer is checked on the simulator like any other; its rows are held
+    #: to ``step_constr_viol_tol`` (IPOPT's ``constr_viol_tol``, unscaled) all the same.
+    #: None (the default; measured with ``near_start``, above): every step to ``tol``
+    step_tol: float | None = None
+    step_constr_viol_tol: float = 1e-7
+
+    def ipopt_options(self, warm: bool, stepping_stone: bool) -> dict:
+        """IPOPT's options of a design solve: ``warm`` (from the last step's multipliers,
+        :data:`~pdw_casadi.nlp.multipliers.WARM_IPOPT`) or cold (near its start when
+        ``near_start``), to ``tol`` or, a ``stepping_stone`` (a homotopy step short of the
+        target and the stops), to ``step_tol``; ``ipopt`` overrides any of them."""
+        start = WARM_IPOPT if warm else NEAR_START_IPOPT if self.near_start else {}
+        loose = {"tol": self.step_tol, "constr_viol_tol": self.step_constr_viol_tol} \
+            if stepping_stone and self.step_tol is not None else {}
+        return ipopt_settings(self.hessian, self.max_iter, self.tol,
+                              {**start, **loose, **self.ipopt}, history=self.lbfgs_history)
 
     @property
     def max_step_radius(self) -> float:
@@ -460,13 +494,14 @@ class ProsthesisDesignSolver:
         lam_x = bound_multipliers(out["lam_x"], old.free, old.p_scale, len(old.specs), nlp)
         return lam_x, lam_g
 
-    def solve(self, w0, warm: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
+    def solve(self, w0, warm: tuple[np.ndarray, np.ndarray] | None = None,
+              stepping_stone: bool = False) -> dict:
         """Solve from ``w0`` (with ``warm`` = (lam_x, lam_g): from those multipliers with
-        IPOPT's warm options): the answer ``w``, IPOPT status, iterations, wall time (s)."""
+        IPOPT's warm options; without, near ``w0`` when ``near_start``) to ``tol``, or to
+        ``step_tol`` when ``stepping_stone`` (a homotopy step short of the target and the
+        stops): the answer ``w``, IPOPT status, iterations, wall time (s)."""
         opts = self.opts
-        ipopt = ipopt_settings(opts.hessian, opts.max_iter, opts.tol,
-                               {**(WARM_IPOPT if warm is not None else {}), **opts.ipopt},
-                               history=opts.lbfgs_history)
+        ipopt = opts.ipopt_options(warm is not None, stepping_stone)
         progress = Progress(self.n_w, self.lbg.size, self.lbg, self.ubg, self.lbx, self.ubx,
                              lambda x: {}, True, self.log if opts.verbose else None,
                              feasible_tol=opts.tol if opts.keep_best_feasible else None,
@@ -650,7 +685,7 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         solver = ProsthesisDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
                                     log=log, bounds=dist_bounds)
         warm = solver.warm_from(last) if last is not None and opts.warm_start else None
-        out = solver.solve(nlp.w0, warm)
+        out = solver.solve(nlp.w0, warm, stepping_stone=level < lighter and not stopped)
         if opts.diagnose:
             _log_diagnosis(solver, out, log)
         u = nlp.unpack(out["w"])
