@@ -154,3 +154,58 @@ def test_stability_row_gradient_is_exact_off_the_orbit(nlp6):
         eps = 1e-6
         fd = (row.value(w + eps * v) - row.value(w - eps * v)) / (2 * eps)
         assert abs(g @ v - fd) < 1e-6 * max(abs(fd), 1.0), (g @ v, fd)
+
+
+def _layout(spec):
+    """A segment's prescribed layout: what a caller gives, none of what the NLP derives."""
+    from pdw_casadi.nlp.shooting import SegmentSpec
+
+    return SegmentSpec(spec.phase, spec.mode, spec.event, spec.transition, spec.n_int,
+                       spec.n_sub, spec.duration0, step=spec.step)
+
+
+def test_a_prescribed_gait_pattern_with_the_simulations_nodes_is_the_same_nlp(nlp6):
+    """The NLP of a prescribed gait pattern (segments and nodes given, no simulation) is the
+    simulated gait's NLP when given its layout and its nodes: the same unknowns at the
+    start, the same rows and bounds, the same event signs derived from the guess, and the
+    same rows' values there (the starting gait closes to 1e-6 either way)."""
+    X = [np.asarray(ca.Function("X", [nlp6.w], [Xk])(nlp6.w0)) for Xk in nlp6.X]
+    xs = nlp6.unpack(nlp6.w0)["xs"]
+    pre = ShootingNLP(nlp6.problem, xs, nlp6.p0, free=tuple(nlp6.free),
+                      segments=[_layout(s) for s in nlp6.specs], nodes=X)
+    np.testing.assert_array_equal(pre.w0, nlp6.w0)
+    np.testing.assert_array_equal(pre.lbg, nlp6.lbg)
+    np.testing.assert_array_equal(pre.ubg, nlp6.ubg)
+    assert pre.g_names == nlp6.g_names
+    for a, b in zip(pre.specs, nlp6.specs, strict=True):
+        assert (a.signs, a.gaps, a.start, a.first_signs, a.ahead, a.cross_sign) == \
+            (b.signs, b.gaps, b.start, b.first_signs, b.ahead, b.cross_sign)
+    g = ca.Function("g", [pre.w], [pre.g])(pre.w0).full().ravel()
+    g_ref = ca.Function("g", [nlp6.w], [nlp6.g])(nlp6.w0).full().ravel()
+    np.testing.assert_allclose(g, g_ref, rtol=0, atol=1e-12)
+    assert max(v for _, v in pre.violations(pre.w0)) <= 1e-6
+
+
+def test_a_prescribed_gait_pattern_is_checked_against_the_walker(nlp6):
+    """A prescribed layout that the walker cannot take is refused with its reason: an
+    unknown phase, a guard without its transition, nodes of the wrong shape, segments
+    without nodes."""
+    import dataclasses
+
+    X = [np.asarray(ca.Function("X", [nlp6.w], [Xk])(nlp6.w0)) for Xk in nlp6.X]
+    xs = nlp6.unpack(nlp6.w0)["xs"]
+    layout = [_layout(s) for s in nlp6.specs]
+
+    def build(segments, nodes):
+        return ShootingNLP(nlp6.problem, xs, nlp6.p0, segments=segments, nodes=nodes)
+
+    bad = [dataclasses.replace(layout[0], phase="IV"), *layout[1:]]
+    with pytest.raises(ValueError, match="no phase 'IV'"):
+        build(bad, X)
+    bad = [dataclasses.replace(layout[0], transition=None), *layout[1:]]
+    with pytest.raises(ValueError, match="ends in a transition"):
+        build(bad, X)
+    with pytest.raises(ValueError, match="nodes of shape"):
+        build(layout, [X[0][:, :-1], *X[1:]])
+    with pytest.raises(ValueError, match="both its segments and its nodes"):
+        build(layout, None)

@@ -110,6 +110,38 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
     return specs
 
 
+def prescribed_segments(hs: HybridSystem, segments, nodes, n_steps: int = 1
+                        ) -> list[SegmentSpec]:
+    """Fresh copies of a prescribed segment layout for :class:`ShootingNLP` (their event
+    signs are the NLP's to derive from the guess), checked against the walker ``hs``: every
+    phase and ending event known, a guard or a switch; a transition after a guard and none
+    after a switch; ``nodes`` one nx x (n_int + 1) array per segment; every step present."""
+    specs = []
+    if len(nodes) != len(segments):
+        raise ValueError(f"{len(nodes)} node arrays for {len(segments)} segments")
+    for k, (s, X) in enumerate(zip(segments, nodes, strict=True)):
+        if s.phase not in hs.event_list:
+            raise ValueError(f"segment {k}: no phase {s.phase!r} in this walker")
+        events = hs.event_list[s.phase]
+        if not 0 <= s.event < len(events) or events[s.event].kind not in (GUARD, SWITCH):
+            raise ValueError(f"segment {k}: its ending event must be a guard or a switch of "
+                             f"phase {s.phase}")
+        if (events[s.event].kind == GUARD) != (s.transition is not None):
+            raise ValueError(f"segment {k}: a guard ({events[s.event].name}) ends in a "
+                             f"transition, a switch in none")
+        if len(s.mode) != len(hs.mode_keys):
+            raise ValueError(f"segment {k}: {len(s.mode)} mode values for "
+                             f"{len(hs.mode_keys)} mode keys")
+        if np.shape(X) != (hs.nx, s.n_int + 1):
+            raise ValueError(f"segment {k}: nodes of shape {np.shape(X)}, expected "
+                             f"{(hs.nx, s.n_int + 1)}")
+        specs.append(SegmentSpec(s.phase, tuple(s.mode), s.event, s.transition, s.n_int,
+                                 s.n_sub, s.duration0, step=s.step))
+    if sorted({s.step for s in specs}) != list(range(n_steps)):
+        raise ValueError(f"the segments must cover steps 0..{n_steps - 1}")
+    return specs
+
+
 class ShootingNLP:
     """The multiple-shooting NLP of one step of ``problem``'s walker (CasADi MX graph).
 
@@ -125,7 +157,14 @@ class ShootingNLP:
     def __init__(self, problem, x0, p0, free: tuple[str, ...] = (), n_sub: int = N_SUB,
                  sample_stride: int = 1, hs: HybridSystem | None = None,
                  transversality: float = 0.5, headroom_s: float = 0.0,
-                 step_perms=None, param_names=None):
+                 step_perms=None, param_names=None,
+                 segments: list[SegmentSpec] | None = None, nodes=None):
+        """``segments`` with ``nodes``: a prescribed gait pattern instead of a simulated one,
+        for a gait the simulator has not found yet (a guess from human curves): the
+        segments' layout (phase, mode, ending event, transition, intervals, starting
+        duration, step) and the starting guess at their shooting nodes, one nx x (n_int + 1)
+        array of full states per segment (SI); ``x0`` is then the guess's section state.
+        Otherwise the layout and the guess are those of a simulation from ``x0``."""
         self.problem = problem
         self.sim = Simulator(problem, hs)
         self.hs = hs = self.sim.hs
@@ -142,15 +181,21 @@ class ShootingNLP:
         self.n_steps = len(self.step_perms)
         self.p0_steps = [self.p0 if i is None else self.p0[i] for i in self.step_perms]
         x0 = np.asarray(x0, float).ravel()
-        run = self.sim.run(x0, self.p0, steps=self.n_steps, record=False,
-                           p_steps=self.p0_steps)
-        if run.failure is not None or run.completed_steps < self.n_steps:
-            raise ValueError(f"the starting gait fails: {run.failure}")
-        self.specs = []
-        for i in range(self.n_steps):
-            for spec in segments_from_plan(hs, run.steps[i].plan, self.h, n_sub, headroom_s):
-                spec.step = i
-                self.specs.append(spec)
+        if (segments is None) != (nodes is None):
+            raise ValueError("a prescribed gait pattern needs both its segments and its nodes")
+        if segments is not None:
+            self.specs = prescribed_segments(hs, segments, nodes, self.n_steps)
+        else:
+            run = self.sim.run(x0, self.p0, steps=self.n_steps, record=False,
+                               p_steps=self.p0_steps)
+            if run.failure is not None or run.completed_steps < self.n_steps:
+                raise ValueError(f"the starting gait fails: {run.failure}")
+            self.specs = []
+            for i in range(self.n_steps):
+                for spec in segments_from_plan(hs, run.steps[i].plan, self.h, n_sub,
+                                               headroom_s):
+                    spec.step = i
+                    self.specs.append(spec)
         self.param_names = list(problem.parameter_names if param_names is None
                                 else param_names)
         if len(self.param_names) != self.p0.size:
@@ -158,7 +203,7 @@ class ShootingNLP:
                              f"parameter names")
         self.free = [n for n in self.param_names if n in free]
         self._build()
-        self.w0 = self._initial_guess(x0)
+        self.w0 = self._initial_guess(x0, nodes)
         self._signs_from_guess()
         self._build_constraints()
 
@@ -247,20 +292,26 @@ class ShootingNLP:
         return self.Y[k][self.output_names(self.specs[k].phase).index(name), :]
 
     # -- initial guess -----------------------------------------------------------------------
-    def _initial_guess(self, x0) -> np.ndarray:
-        """Nodes from a forward pass of the NLP's own integrator over the plan's durations."""
+    def _initial_guess(self, x0, nodes=None) -> np.ndarray:
+        """Nodes from a forward pass of the NLP's own integrator over the plan's durations
+        (``nodes``: the prescribed ones; the later steps' section states from the impacts
+        at their ends either way)."""
         hs, model = self.hs, self.model
         x = model.section_to_full(x0, self.p0_steps[0]).full().ravel()
         Xs, xs_next = [], []
         for k, s in enumerate(self.specs):
             p = self.p0_steps[s.step]
-            h = s.duration0 / (s.n_int * s.n_sub)
-            F = self._interval(s.phase, s.n_sub)
-            cols = [x]
-            for _ in range(s.n_int):
-                x = F(x, p, s.mode, h)[0].full()[:, -1]
-                cols.append(x)
-            Xs.append(np.column_stack(cols))
+            if nodes is not None:
+                Xs.append(np.asarray(nodes[k], float))
+                x = Xs[-1][:, -1]
+            else:
+                h = s.duration0 / (s.n_int * s.n_sub)
+                F = self._interval(s.phase, s.n_sub)
+                cols = [x]
+                for _ in range(s.n_int):
+                    x = F(x, p, s.mode, h)[0].full()[:, -1]
+                    cols.append(x)
+                Xs.append(np.column_stack(cols))
             if s.transition is not None:
                 x = hs.impact_at(s.transition, x, p).x_plus
             if k + 1 < len(self.specs) and self.specs[k + 1].step != s.step:
