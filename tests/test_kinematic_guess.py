@@ -1,0 +1,109 @@
+"""The kinematic guess of a step from human curves (pdw_casadi.gait.kinematic): every
+posture holds its phase's contacts, every velocity keeps them at rest, a guard on the posture
+alone is met where its phase ends, a phase begins where the last one ended, and in single
+support the joint angles are the human curves'."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pdw_casadi.gait.curves import cycle_time
+from pdw_casadi.gait.kinematic import GuessPhase, KinematicGuess, kinematic_guess
+from pdw_casadi.model.gait_data import load_gait_curves
+from pdw_casadi.model.hybrid import GUARD
+
+N_NODES = 15
+
+
+@pytest.fixture(scope="module")
+def guess(problem, hs, params):
+    """The guess of the bundled walker's pattern (phase I to toe off, II to heel strike,
+    III to foot strike) with human-like durations (s) from the bundled female_fast.csv."""
+    human = load_gait_curves("female_fast.csv")
+    phases = [GuessPhase("I", 0.06, N_NODES, "toe_off"),
+              GuessPhase("II", 0.55, N_NODES, "heel_strike"),
+              GuessPhase("III", 0.06, N_NODES, "foot_strike")]
+    q0 = hs.section_to_full(problem.state_vector(), params).full().ravel()
+    return human, phases, q0, kinematic_guess(hs, params, human, phases, q0)
+
+
+def test_every_posture_holds_its_phases_contacts_and_every_velocity_keeps_them(
+        hs, params, guess):
+    """Each phase's contact rows keep their value at the phase's first instant (the first
+    phase: the section state's, feet on the ground) at every instant to 1e-9 (m, rad), and
+    the velocities lie in the contacts' null space to 1e-9."""
+    _, phases, q0, nodes = guess
+    kg = KinematicGuess(hs)
+    nq = hs.nq
+    for k, (ph, X) in enumerate(zip(phases, nodes, strict=True)):
+        assert X.shape == (hs.nx, ph.n_nodes)
+        fun = kg.contacts(ph.phase)
+        c0 = fun(q0[:nq] if k == 0 else X[:nq, 0], params)[0].full().ravel()
+        for j in range(ph.n_nodes):
+            c, J = (a.full() for a in fun(X[:nq, j], params))
+            assert np.max(np.abs(c.ravel() - c0)) < 1e-9, (ph.phase, j)
+            assert np.max(np.abs(J @ X[nq:2 * nq, j])) < 1e-9, (ph.phase, j)
+
+
+def test_a_posture_guard_is_met_where_its_phase_ends_and_phases_join(hs, params, guess):
+    """The heel strike and the foot strike (guards on the posture alone) are zero at their
+    phase's last instant to 1e-9; toe off (a guard on a contact force) is left to the NLP;
+    each phase after the first begins at the last one's final posture."""
+    _, phases, _, nodes = guess
+    nq = hs.nq
+    m = np.array(hs.mode_vector(hs.model.initial_mode))
+    for ph, X in zip(phases, nodes, strict=True):
+        names = [e.name for e in hs.event_list[ph.phase]]
+        i = names.index(ph.guard)
+        assert hs.event_list[ph.phase][i].kind == GUARD
+        g = float(hs.events[ph.phase](X[:, -1], params, m).full().ravel()[i])
+        if ph.guard in ("heel_strike", "foot_strike"):
+            assert abs(g) < 1e-9, ph.guard
+    for a, b in zip(nodes, nodes[1:], strict=False):
+        np.testing.assert_array_equal(b[:nq, 0], a[:nq, -1])
+
+
+def test_in_single_support_the_joint_angles_are_the_human_curves(hs, params, guess):
+    """In phase II (the stance foot flat, both legs' knee and thigh free) the walker's own
+    knee and thigh outputs at the instants before the heel strike's equal the human curves
+    at each leg's point of the cycle up to the pull's bias: the pull (1e-2) times what an
+    angle moves between instants, twice over (an angle is the sum or difference of at most
+    two coordinates)."""
+    human, phases, _, nodes = guess
+    T = sum(ph.duration for ph in phases)
+    t_hs = sum(ph.duration for ph in phases[:2])
+    t0 = phases[0].duration
+    names = hs.output_names["II"]
+    m = np.array(hs.mode_vector(hs.model.initial_mode))
+    X = nodes[1]
+    worst, moved, last = 0.0, 0.0, None
+    for j in range(1, N_NODES - 1):
+        t = t0 + j * phases[1].duration / (N_NODES - 1)
+        out = hs.outputs["II"](X[:, j], params, m).full().ravel()
+        wants = []
+        for stem, curve in (("knee", human.knee_deg), ("thigh", human.thigh_deg)):
+            for leg in (1, 2):
+                pct = 100 * cycle_time(t, leg, T, t_hs, False) / (2 * T)
+                want = np.interp(pct % 100, human.cycle_pct, curve, period=100)
+                worst = max(worst, abs(out[names.index(f"{stem}{leg}_deg")] - want))
+                wants.append(want)
+        if last is not None:
+            moved = max(moved, np.max(np.abs(np.subtract(wants, last))))
+        last = wants
+    assert worst <= 2 * KinematicGuess(hs).pull * moved
+    assert worst < 0.5  # the curves, not merely near them
+
+
+def test_a_guess_needs_the_curves_and_a_pattern_the_walker_has(hs, params, problem):
+    """A pattern with a phase the walker lacks, a phase of one instant, or curves without a
+    target's column are refused with their reason."""
+    human = load_gait_curves("female_fast.csv")
+    q0 = hs.section_to_full(problem.state_vector(), params).full().ravel()
+    with pytest.raises(ValueError, match="at least 2 instants"):
+        kinematic_guess(hs, params, human, [GuessPhase("II", 0.5, 1)], q0)
+    with pytest.raises(ValueError, match="no event 'heel_off'"):
+        kinematic_guess(hs, params, human, [GuessPhase("II", 0.5, 5, "heel_off"),
+                                            GuessPhase("III", 0.05, 5)], q0)
+    with pytest.raises(ValueError, match="no heel-strike phase"):
+        kinematic_guess(hs, params, human, [GuessPhase("II", 0.5, 5)], q0)
