@@ -107,3 +107,47 @@ def test_a_guess_needs_the_curves_and_a_pattern_the_walker_has(hs, params, probl
                                             GuessPhase("III", 0.05, 5)], q0)
     with pytest.raises(ValueError, match="no heel-strike phase"):
         kinematic_guess(hs, params, human, [GuessPhase("II", 0.5, 5)], q0)
+
+
+def test_a_prescribed_pattern_read_off_the_guess(problem, hs, params):
+    """pattern_from_guess cuts the prescribed phases at the switches the guess crosses: the
+    phases come in the prescribed order, each ends on its guard with the walker's
+    transition, a phase's segments last its duration (to 1e-12 s), each segment's first
+    node is the last one's final posture, every mode flag agrees with the sign of its
+    event at the segment's first node (where that sign is clear), and the NLP of the
+    pattern is built on it (its unknowns at the start are the nodes)."""
+    from pdw_casadi.gait.simulate import Simulator
+    from pdw_casadi.nlp.pattern import pattern_from_guess
+    from pdw_casadi.nlp.shooting import ShootingNLP
+
+    human = load_gait_curves("female_fast.csv")
+    phases = [GuessPhase("I", 0.06, 0, "toe_off"), GuessPhase("II", 0.55, 0, "heel_strike"),
+              GuessPhase("III", 0.06, 0, "foot_strike")]
+    q0 = hs.section_to_full(problem.state_vector(), params).full().ravel()
+    h = Simulator(problem, hs).h
+    specs, nodes = pattern_from_guess(hs, params, human, phases, q0, h)
+    assert [s.phase for s in specs][0] == "I" and specs[-1].phase == "III"
+    order = [s.phase for s in specs]
+    assert [ph for i, ph in enumerate(order) if i == 0 or order[i - 1] != ph] == \
+        ["I", "II", "III"]
+    nq = hs.nq
+    for ph in phases:
+        mine = [s for s in specs if s.phase == ph.phase]
+        assert abs(sum(s.duration0 for s in mine) - ph.duration) < 1e-12
+        last = mine[-1]
+        assert hs.event_list[ph.phase][last.event].name == ph.guard
+        assert last.transition == hs.transitions[(ph.phase, ph.guard)].name
+        assert all(s.transition is None for s in mine[:-1])
+    for a, b in zip(nodes, nodes[1:], strict=False):
+        np.testing.assert_array_equal(b[:nq, 0], a[:nq, -1])
+    for s, X in zip(specs, nodes, strict=True):
+        mode = dict(zip(hs.mode_keys, s.mode, strict=True))
+        g = hs.events[s.phase].np(X[:, 0], params, s.mode).ravel()
+        scale = np.abs(hs.events[s.phase].np(X[:, -1], params, s.mode).ravel()) + 1e-3
+        for i, ev in enumerate(hs.event_list[s.phase]):
+            if ev.indicator and abs(g[i]) > 1e-2 * scale[i]:
+                assert mode[ev.indicator] == (1.0 if g[i] > 0 else 0.0), (s.phase, ev.name)
+    xs = hs.full_to_section(nodes[0][:, 0]).full().ravel()
+    nlp = ShootingNLP(problem, xs, params, segments=specs, nodes=nodes)
+    u = nlp.unpack(nlp.w0)
+    np.testing.assert_allclose(u["T"], [s.duration0 for s in specs], rtol=0, atol=0)
