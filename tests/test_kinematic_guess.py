@@ -96,8 +96,9 @@ def test_in_single_support_the_joint_angles_are_the_human_curves(hs, params, gue
 
 
 def test_a_guess_needs_the_curves_and_a_pattern_the_walker_has(hs, params, problem):
-    """A pattern with a phase the walker lacks, a phase of one instant, or curves without a
-    target's column are refused with their reason."""
+    """A pattern with a phase the walker lacks, a phase of one instant, a guard its phase
+    lacks, no heel-strike phase, or curves without a target's column is refused with its
+    reason."""
     human = load_gait_curves("female_fast.csv")
     q0 = hs.section_to_full(problem.state_vector(), params).full().ravel()
     with pytest.raises(ValueError, match="at least 2 instants"):
@@ -107,6 +108,13 @@ def test_a_guess_needs_the_curves_and_a_pattern_the_walker_has(hs, params, probl
                                             GuessPhase("III", 0.05, 5)], q0)
     with pytest.raises(ValueError, match="no heel-strike phase"):
         kinematic_guess(hs, params, human, [GuessPhase("II", 0.5, 5)], q0)
+    with pytest.raises(ValueError, match="no phase 'IV'"):
+        kinematic_guess(hs, params, human, [GuessPhase("IV", 0.5, 5)], q0)
+    frame = human.to_frame().drop(columns=["thigh_mean_deg", "thigh_sd_deg"], errors="ignore")
+    no_thigh = type(human)(frame, human.source, human.name)
+    with pytest.raises(ValueError, match="no thigh_deg"):
+        kinematic_guess(hs, params, no_thigh, [GuessPhase("II", 0.5, 5),
+                                               GuessPhase("III", 0.05, 5)], q0)
 
 
 def test_a_prescribed_pattern_read_off_the_guess(problem, hs, params):
@@ -148,6 +156,50 @@ def test_a_prescribed_pattern_read_off_the_guess(problem, hs, params):
             if ev.indicator and abs(g[i]) > 1e-2 * scale[i]:
                 assert mode[ev.indicator] == (1.0 if g[i] > 0 else 0.0), (s.phase, ev.name)
     xs = hs.full_to_section(nodes[0][:, 0]).full().ravel()
-    nlp = ShootingNLP(problem, xs, params, segments=specs, nodes=nodes)
-    u = nlp.unpack(nlp.w0)
-    np.testing.assert_allclose(u["T"], [s.duration0 for s in specs], rtol=0, atol=0)
+    ShootingNLP(problem, xs, params, segments=specs, nodes=nodes)  # the walker takes it
+
+
+def test_the_pattern_of_the_walkers_own_curves_is_its_simulated_pattern(problem, hs):
+    """Given the walker's own gait as the curves (its fixed point's knee, hip and thigh over
+    the cycle) and its phases' durations, the pattern read off the guess switches as the
+    simulator did: the same switch events in the same order, each within one point of the
+    curves (1 % of the cycle: between their points the curves, and so the guess's rates,
+    are linear)."""
+    import pandas as pd
+
+    from pdw_casadi.gait.curves import gait_cycle
+    from pdw_casadi.gait.fixed_point import find_fixed_point
+    from pdw_casadi.gait.simulate import Segment, Simulator
+    from pdw_casadi.model.gait_data import GaitCurves
+    from pdw_casadi.nlp.pattern import pattern_from_guess
+
+    fp = find_fixed_point(problem)
+    sim = Simulator(problem, hs)
+    run = sim.run(fp.state, fp.parameters, steps=1, record=True)
+    cycle = gait_cycle(run.trajectory.to_frame() if hasattr(run.trajectory, "to_frame")
+                       else run.trajectory, hs.model.heel_strike_phase)
+    curves = GaitCurves(pd.DataFrame({"cycle_pct": cycle["cycle_pct"],
+                                      **{f"{c}_mean_deg": cycle[f"{c}_deg"]
+                                         for c in ("knee", "hip", "thigh")}}),
+                        "own.csv", "own")
+    simulated, phases, t = [], [], 0.0
+    for it in run.steps[0].plan.items:
+        if not isinstance(it, Segment):
+            continue
+        ev = hs.event_list[it.phase][it.event]
+        t += it.n * it.h + it.tau
+        if ev.kind == GUARD:
+            start = sum(ph.duration for ph in phases)
+            phases.append(GuessPhase(it.phase, t - start, 0, ev.name))
+        else:
+            simulated.append((ev.name, t))
+    q0 = hs.section_to_full(fp.state, fp.parameters).full().ravel()
+    specs, _ = pattern_from_guess(hs, fp.parameters, curves, phases, q0, sim.h)
+    found, t = [], 0.0
+    for s in specs:
+        t += s.duration0
+        if s.transition is None:
+            found.append((hs.event_list[s.phase][s.event].name, t))
+    assert [n for n, _ in found] == [n for n, _ in simulated]
+    spacing = 2 * sum(ph.duration for ph in phases) / (len(curves.cycle_pct) - 1)
+    assert max(abs(a - b) for (_, a), (_, b) in zip(found, simulated, strict=True)) < spacing

@@ -209,3 +209,8 @@ def test_a_prescribed_gait_pattern_is_checked_against_the_walker(nlp6):
         build(layout, [X[0][:, :-1], *X[1:]])
     with pytest.raises(ValueError, match="both its segments and its nodes"):
         build(layout, None)
+    # phases out of the walker's order, and a step that does not end
+    with pytest.raises(ValueError, match="cannot follow"):
+        build([layout[0], *layout[2:], layout[1]], [X[0], *X[2:], X[1]])
+    with pytest.raises(ValueError, match="must end the step"):
+        build(layout[:-1], X[:-1])

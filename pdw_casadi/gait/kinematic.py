@@ -18,7 +18,9 @@ the human curves instead of from a simulation:
   section state puts them (its initial state: feet on the ground); a later phase begins at
   the posture where the last one ended (a transition keeps the posture);
 - **velocities**: central differences of the postures within the phase, projected onto the
-  phase's contacts (the least change that keeps every contact at rest);
+  phase's contacts (the least change that keeps every contact at rest); where a phase
+  begins at the transition of the one before, the state the transition makes (an impact's
+  velocities);
 - the damper work W: 0.
 
 In single support, where both legs' knee and thigh are free, the postures reproduce the
@@ -70,7 +72,7 @@ class KinematicGuess:
         self._contacts: dict = {}
 
     def contacts(self, phase: str) -> ca.Function:
-        """(q, p) -> (the phase's contact rows, their Jacobian in q)."""
+        """(q, p) -> (the phase's contact rows (m, rad), their Jacobian in q)."""
         if phase not in self._contacts:
             rows = self.hs.phases[phase].contact.rows
             self._contacts[phase] = ca.Function(f"contacts_{phase}", [self.q, self.p],
@@ -101,11 +103,13 @@ class KinematicGuess:
         if guard not in events:
             raise ValueError(f"phase {phase} has no event {guard!r}")
         expr = events[guard].expr
-        return None if ca.depends_on(expr, self.model.system.qd) else expr
+        rest = ca.vertcat(self.model.system.qd, self.model.m)
+        return None if ca.depends_on(expr, rest) else expr
 
     def solver(self, phase: str, guard: str | None):
         """The posture NLP of ``phase`` (with its ending ``guard`` held when posture-only):
-        parameters (targets (deg), previous posture, contact rows' values, p)."""
+        parameters (targets (deg), previous posture (rad, m), contact rows' values (m,
+        rad), p (SI))."""
         key = (phase, guard)
         if key not in self._solvers:
             y, _ = self._angles(phase)
@@ -137,10 +141,10 @@ class KinematicGuess:
                              f"previous one ({solver.stats()['return_status']})")
         return sol["x"].full().ravel()
 
-    def velocities(self, phase: str, Q: np.ndarray, h: float, p) -> np.ndarray:
-        """Central differences (rad/s, m/s) of the postures ``Q`` (nq x n, ``h`` s apart),
-        each projected onto the phase's contacts: J qd = 0."""
-        V = np.gradient(Q, h, axis=1) if Q.shape[1] > 1 else np.zeros_like(Q)
+    def velocities(self, phase: str, Q: np.ndarray, t: np.ndarray, p) -> np.ndarray:
+        """Central differences (rad/s, m/s) of the postures ``Q`` (nq x n, rad and m) at the
+        instants ``t`` (s, increasing), each projected onto the phase's contacts: J qd = 0."""
+        V = np.gradient(Q, np.asarray(t, float), axis=1) if Q.shape[1] > 1 else np.zeros_like(Q)
         fun = self.contacts(phase)
         for j in range(Q.shape[1]):
             J = fun(Q[:, j], p)[1].full()
@@ -150,8 +154,8 @@ class KinematicGuess:
 
 
 def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
-                    targets: Sequence[str] = tuple(GUESS_TARGETS), pull: float = 1e-2
-                    ) -> list[np.ndarray]:
+                    targets: Sequence[str] = tuple(GUESS_TARGETS), pull: float = 1e-2,
+                    kg: KinematicGuess | None = None) -> list[np.ndarray]:
     """The full states (nx x n_nodes per phase, SI) of one step of the walker ``hs`` with
     parameters ``p`` along the prescribed ``phases`` (module docstring), following the
     human ``human`` (:class:`~pdw_casadi.model.gait_data.GaitCurves`; the targets' columns
@@ -159,9 +163,16 @@ def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
     (the walker's section state, full: its feet on the ground). The step lasts the phases'
     total; the swing leg's heel strike is the start of the walker's heel-strike phase
     (``model.heel_strike_phase``; None: the step begins at it), which sets each leg's
-    point of the cycle."""
-    kg = KinematicGuess(hs, targets, pull)
+    point of the cycle. ``pull``: the weight of the pull towards the previous posture
+    (its coordinates in deg, positions in m taken as rad), against the targets' squared
+    errors in deg^2; ``kg``: the machinery of an earlier guess of the same walker, reused
+    (its targets and pull then apply)."""
+    kg = kg or KinematicGuess(hs, targets, pull)
     p = np.asarray(p, float).ravel()
+    unknown = [ph.phase for ph in phases if ph.phase not in hs.phases]
+    if unknown:
+        raise ValueError(f"walker {hs.model.name!r} has no phase {unknown[0]!r} (its phases: "
+                         f"{', '.join(hs.phase_names)})")
     if any(ph.n_nodes < 2 or ph.duration <= 0 for ph in phases):
         raise ValueError("every phase needs a positive duration and at least 2 instants")
     T = sum(ph.duration for ph in phases)
@@ -189,7 +200,7 @@ def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
         return np.asarray(out)
 
     q = np.asarray(q_start, float).ravel()[: kg.nq]
-    nodes = []
+    postures, times = [], []
     for k, ph in enumerate(phases):
         c0 = kg.contacts(ph.phase)(q, p)[0].full().ravel()
         ts = starts[k] + np.linspace(0.0, ph.duration, ph.n_nodes)
@@ -200,10 +211,35 @@ def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
             guard = ph.guard if j == ph.n_nodes - 1 else None
             q = kg.posture(ph.phase, guard, target(float(ts[j]), after), q, c0, p)
             Q.append(q)
-        Q = np.column_stack(Q)
-        V = kg.velocities(ph.phase, Q, ph.duration / (ph.n_nodes - 1), p)
-        W = np.zeros((hs.nx - 2 * kg.nq, ph.n_nodes))
-        nodes.append(np.vstack([Q, V, W]))
+        postures.append(np.column_stack(Q))
+        times.append(ts)
+    # velocities over each run of entries in one phase together (a phase cut at its mode
+    # switches is one motion: its pieces join with one velocity)
+    velocities: list[np.ndarray] = []
+    k = 0
+    while k < len(phases):
+        run = [k]
+        while run[-1] + 1 < len(phases) and phases[run[-1] + 1].phase == phases[k].phase:
+            run.append(run[-1] + 1)
+        Q = np.column_stack([postures[run[0]], *[postures[i][:, 1:] for i in run[1:]]])
+        ts = np.concatenate([times[run[0]], *[times[i][1:] for i in run[1:]]])
+        V = kg.velocities(phases[k].phase, Q, ts, p)
+        at = 0
+        for i in run:
+            n = phases[i].n_nodes
+            velocities.append(V[:, at: at + n])
+            at += n - 1
+        k = run[-1] + 1
+    W = [np.zeros((hs.nx - 2 * kg.nq, ph.n_nodes)) for ph in phases]
+    nodes = [np.vstack(parts) for parts in zip(postures, velocities, W, strict=True)]
+    # where a phase ends on its guard and another begins, the state there is the one the
+    # walker's transition makes of the last (an impact's velocities, not differences)
+    for k in range(1, len(phases)):
+        before = phases[k - 1]
+        tr = hs.transitions.get((before.phase, before.guard))
+        if before.phase != phases[k].phase and tr is not None and not tr.ends_step:
+            x_plus = hs.impact_at(tr.name, nodes[k - 1][:, -1], p).x_plus
+            nodes[k][:, 0] = np.asarray(x_plus, float).ravel()
     return nodes
 
 

@@ -39,7 +39,7 @@ IPOPT_TOL = 1e-6
 #: that is nearly feasible and nearly optimal (a homotopy step started at the last answer):
 #: IPOPT's own (``mu_init`` 0.1, pushes 1e-2 of each bound's size) move such a start deep
 #: into the interior, away from the answer it is next to (measured on the 30 % prosthesis
-#: design, docs/results/prosthesis.md, "Near the start, to a stepping stone's tolerance")
+#: design, docs/results/prosthesis.md, "Where the 30 % design's time goes")
 NEAR_START_IPOPT = {"mu_init": 1e-4, "bound_push": 1e-6, "bound_frac": 1e-6,
                     "slack_bound_push": 1e-6, "slack_bound_frac": 1e-6}
 #: IPOPT return statuses that count as a solved NLP

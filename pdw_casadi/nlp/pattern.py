@@ -20,9 +20,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pdw_casadi.gait.kinematic import GUESS_TARGETS, GuessPhase, kinematic_guess
+from pdw_casadi.gait.kinematic import GUESS_TARGETS, GuessPhase, KinematicGuess, kinematic_guess
 from pdw_casadi.model.hybrid import SWITCH
-from pdw_casadi.nlp.shooting import N_SUB, SegmentSpec
+from pdw_casadi.nlp.shooting import N_SUB, SegmentSpec, shooting_intervals
 
 #: instants per second of the fine grid the switches are located on (2 ms apart)
 FINE_RATE_HZ = 500.0
@@ -44,7 +44,8 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
                              f"{ph.guard!r}; name the guard that ends it")
     fine = [GuessPhase(ph.phase, ph.duration, max(3, math.ceil(ph.duration * FINE_RATE_HZ)),
                        ph.guard) for ph in phases]
-    guess = kinematic_guess(hs, p, human, fine, q_start, targets)
+    kg = KinematicGuess(hs, targets)  # its posture NLPs serve both passes
+    guess = kinematic_guess(hs, p, human, fine, q_start, kg=kg)
     mode = dict(model.initial_mode)
     mode = hs.refresh_indicators(phases[0].phase, guess[0][:, 0], p, mode)
     cuts: list[tuple[str, tuple, int, str | None, float]] = []
@@ -52,18 +53,25 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
         evs = hs.event_list[ph.phase]
         ts = np.linspace(0.0, ph.duration, ph.n_nodes)
         t_seg = 0.0
-        g_prev = hs.events[ph.phase].np(X[:, 0], p, hs.mode_vector(mode)).ravel()
         for j in range(1, ph.n_nodes):
-            mv = hs.mode_vector(mode)
-            g = hs.events[ph.phase].np(X[:, j], p, mv).ravel()
-            crossed = [i for i, ev in enumerate(evs)
-                       if ev.kind == SWITCH and ev.enabled(mode) and g_prev[i] * g[i] < 0
-                       and (ev.direction == 0 or np.sign(g[i]) == ev.direction)]
-            if crossed:
-                # the first crossing between the two instants (linear in between)
-                frac = {i: g_prev[i] / (g_prev[i] - g[i]) for i in crossed}
+            handled: set[int] = set()
+            last = 0.0
+            while True:  # every switch crossed between the two instants, in time order
+                mv = hs.mode_vector(mode)
+                g0 = hs.events[ph.phase].np(X[:, j - 1], p, mv).ravel()
+                g = hs.events[ph.phase].np(X[:, j], p, mv).ravel()
+                frac = {i: g0[i] / (g0[i] - g[i]) for i, ev in enumerate(evs)
+                        if i not in handled and ev.kind == SWITCH and ev.enabled(mode)
+                        and g0[i] * g[i] < 0
+                        and (ev.direction == 0 or np.sign(g[i]) == ev.direction)}
+                frac = {i: f for i, f in frac.items() if f >= last}
+                if not frac:
+                    break
+                # the first crossing (linear in between), then the mode it leaves
                 i = min(frac, key=frac.get)
-                t = ts[j - 1] + frac[i] * (ts[j] - ts[j - 1])
+                last = frac[i]
+                handled.add(i)
+                t = ts[j - 1] + last * (ts[j] - ts[j - 1])
                 if t > t_seg:
                     cuts.append((ph.phase, tuple(mv), i, None, t - t_seg))
                     t_seg = t
@@ -74,8 +82,6 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
                 if ev.effect is not None:
                     mode = ev.effect(mode, sign)
                 mode = hs.refresh_indicators(ph.phase, X[:, j], p, mode, skip=i)
-                g = hs.events[ph.phase].np(X[:, j], p, hs.mode_vector(mode)).ravel()
-            g_prev = g
         tr = hs.transitions[(ph.phase, ph.guard)]
         i_guard = [e.name for e in evs].index(ph.guard)
         cuts.append((ph.phase, tuple(hs.mode_vector(mode)), i_guard, tr.name,
@@ -83,16 +89,17 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
         after = tr.mode_after(mode) if tr.mode_after else mode
         if isinstance(after, str):
             raise ValueError(f"the guess breaks the walker's mode rule at {tr.name}: {after}")
-        if k + 1 < len(fine):  # the flags read where the next phase begins, as after an impact
-            mode = hs.refresh_indicators(tr.target, guess[k + 1][:, 0], p, after)
+        if k + 1 < len(fine):  # the flags read right after the impact, as the simulator does
+            x_plus = np.asarray(hs.impact_at(tr.name, X[:, -1], p).x_plus, float).ravel()
+            mode = hs.refresh_indicators(tr.target, x_plus, p, after)
     # the guess again, at each segment's shooting nodes
     specs, layout = [], []
     for phase, mv, event, transition, duration in cuts:
-        n_int = int(math.ceil(duration / (n_sub * h))) + 1
+        n_int = shooting_intervals(duration, n_sub, h)
         specs.append(SegmentSpec(phase, mv, event, transition, n_int, n_sub, duration))
         guard = hs.event_list[phase][event].name if transition is not None else None
         layout.append(GuessPhase(phase, duration, n_int + 1, guard))
-    return specs, kinematic_guess(hs, p, human, layout, q_start, targets)
+    return specs, kinematic_guess(hs, p, human, layout, q_start, kg=kg)
 
 
 __all__ = ["FINE_RATE_HZ", "pattern_from_guess"]

@@ -85,6 +85,14 @@ class SegmentSpec:
     step: int = 0  # the step (of a stride) the segment belongs to
 
 
+def shooting_intervals(duration: float, n_sub: int, h: float, headroom_s: float = 0.0) -> int:
+    """The shooting intervals of a segment lasting ``duration`` (s) with ``n_sub`` RK4 steps
+    of about ``h`` (s) each: enough for it and ``headroom_s`` more, plus one interval of
+    headroom (a segment's duration is bounded by n_int n_sub h_max, the RK4 step bound, and
+    short segments, phase I lasts ~4 ms, must be free to grow)."""
+    return int(math.ceil((duration + headroom_s) / (n_sub * h))) + 1
+
+
 def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
                        headroom_s: float = 0.0) -> list[SegmentSpec]:
     """Segment layout of one step from a simulator plan
@@ -102,9 +110,7 @@ def segments_from_plan(hs: HybridSystem, plan, h: float, n_sub: int = N_SUB,
         if ev.kind not in (GUARD, SWITCH):
             raise ValueError(f"plan segment ends on failure event {ev.name!r}")
         dur = item.n * item.h + item.tau
-        # one interval of headroom: a segment's duration is bounded by n_int n_sub h_max
-        # (the RK4 step bound), and short segments (phase I lasts ~4 ms) must be free to grow
-        n_int = int(math.ceil((dur + headroom_s) / (n_sub * h))) + 1
+        n_int = shooting_intervals(dur, n_sub, h, headroom_s)
         specs.append(SegmentSpec(item.phase, tuple(item.mode), item.event, tr, n_int, n_sub,
                                  dur))
     return specs
@@ -137,8 +143,26 @@ def prescribed_segments(hs: HybridSystem, segments, nodes, n_steps: int = 1
                              f"{(hs.nx, s.n_int + 1)}")
         specs.append(SegmentSpec(s.phase, tuple(s.mode), s.event, s.transition, s.n_int,
                                  s.n_sub, s.duration0, step=s.step))
-    if sorted({s.step for s in specs}) != list(range(n_steps)):
-        raise ValueError(f"the segments must cover steps 0..{n_steps - 1}")
+    if [s.step for s in specs] != sorted(s.step for s in specs) or \
+            sorted({s.step for s in specs}) != list(range(n_steps)):
+        raise ValueError(f"the segments must cover steps 0..{n_steps - 1} in order")
+    by_name = {tr.name: tr for tr in hs.transitions.values()}
+    for k, (s, nxt) in enumerate(zip(specs, [*specs[1:], None], strict=True)):
+        tr = by_name.get(s.transition) if s.transition is not None else None
+        if s.transition is not None and (tr is None or tr.source != s.phase):
+            raise ValueError(f"segment {k}: no transition {s.transition!r} leaves phase "
+                             f"{s.phase}")
+        ends_step = tr is not None and tr.ends_step
+        if nxt is None:
+            if not ends_step:
+                raise ValueError(f"the last segment must end the step (on "
+                                 f"{[t.name for t in by_name.values() if t.ends_step]})")
+            continue
+        want = tr.target if tr is not None else s.phase
+        if nxt.phase != want or nxt.step != s.step + (1 if ends_step else 0):
+            raise ValueError(f"segment {k + 1}: phase {nxt.phase} (step {nxt.step}) cannot "
+                             f"follow {s.phase} ending on "
+                             f"{hs.event_list[s.phase][s.event].name} (expected {want})")
     return specs
 
 
@@ -163,7 +187,8 @@ class ShootingNLP:
         for a gait the simulator has not found yet (a guess from human curves): the
         segments' layout (phase, mode, ending event, transition, intervals, starting
         duration, step) and the starting guess at their shooting nodes, one nx x (n_int + 1)
-        array of full states per segment (SI); ``x0`` is then the guess's section state.
+        array of full states per segment (SI); ``x0`` is then the guess's section state, and
+        ``n_sub`` and ``headroom_s`` are the segments' own (their ``n_sub``, ``n_int``).
         Otherwise the layout and the guess are those of a simulation from ``x0``."""
         self.problem = problem
         self.sim = Simulator(problem, hs)
