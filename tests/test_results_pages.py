@@ -1291,6 +1291,57 @@ def test_prosthesis_page_the_study_in_prose(checks):
     checks.verify()
 
 
+def test_prosthesis_page_the_design_speed_tables(checks):
+    """prosthesis.md, "Checks at every fifth sample": each row's per-step iterations and
+    IPOPT seconds in the prose sum to its "iterations" and, divided, to its "IPOPT s per
+    iteration"; the time ratio is the two "whole design" cells'. "Tried and not kept: each
+    step started near the last answer": the step table's IPOPT seconds are within the whole
+    run's, and the warm run's counts (five steps' iterations and the large steps') add up to
+    its solves and, but for the steps printed without a count (each at most ``--max-iter``),
+    its iterations."""
+    name = "prosthesis.md"
+    rows = {r["every"]: r for r in table(name, "IPOPT s per iteration")}
+    prose = {"5th sample": r"The steps at every fifth sample \([^)]*\): (.*?); IPOPT ([\d., "
+                           r"and]+?) s\.",
+             "2nd sample": r"At every second sample: (.*?); IPOPT ([\d., and]+?) s\."}
+    for every, pattern in prose.items():
+        steps, seconds = passage(name, pattern)
+        # the parentheses hold the answer's iteration index, not a count: left out
+        counts = [int(v) for v in numbers(re.sub(r"\([^)]*\)", "", steps))]
+        times = [Decimal(v) for v in numbers(seconds)]
+        row = rows[every]
+        checks.truth(name, f"{every}: one count and one time per solve",
+                     len(counts) == len(times) == int(row["solves"]))
+        checks.figure(name, row["iterations"], Decimal(sum(counts)), what=f"{every}: iterations")
+        checks.figure(name, row["IPOPT s per iteration"], sum(times) / int(row["iterations"]),
+                      what=f"{every}: IPOPT s per iteration")
+    whole = {e: Decimal(numbers(r["whole design"])[0]) for e, r in rows.items()}
+    ratio, = passage(name, r"\*\*NUM of the time\*\*")
+    checks.figure(name, ratio, whole["5th sample"] / whole["2nd sample"], what="time ratio")
+
+    # the step table (steps as columns) under "did not carry it": the page's third with it
+    step = {r["step (% lighter)"]: r for r in table(name, "| step (% lighter) | 0.3 |", 2)}
+    secs = [Decimal(v) for k, v in step["IPOPT s"].items() if k != "step (% lighter)"]
+    total, = passage(name, r"did not carry it: \*\*NUM s\*\* against")
+    checks.truth(name, f"the step table's IPOPT {sum(secs)} s is part of the whole {total} s",
+                 len(secs) == 8 and sum(secs) < Decimal(total))
+    # the warm run: the five small steps, then the large ones up to "**919 s** in 13 solves"
+    *_, small, large, _, solves, iters = passage(
+        name, r"\*\*five steps to NUM % in NUM s\*\* \(([\d, and]+) iterations, .*?but the "
+        r"large ones do not: (.*?): \*\*NUM s\*\* in NUM solves and NUM iterations")
+    five = [int(v) for v in numbers(small)]
+    levels = re.findall(NUM + r" %", large)  # "9.3 -> 18.9 %": the step's target only
+    counted = [int(v) for v in re.findall(r"(?:at |its |\()(\d+)\b", large)]
+    max_iter, = passage(name, r"\(`--max-iter`, default NUM\)")
+    checks.truth(name, f"the warm run: {len(five)} + {len(levels)} steps, {solves} solves",
+                 len(five) == 5 and len(five) + len(levels) == int(solves))
+    checks.truth(name, f"the warm run: {iters} iterations, the steps' own "
+                 f"{sum(five)} + {sum(counted)} (each at most {max_iter})",
+                 len(counted) == len(levels) and int(iters) == sum(five) + sum(counted)
+                 and max(five + counted) <= int(max_iter))
+    checks.verify()
+
+
 # -- fit.md, performance.md: the corpus runs' totals restate their tables ----------------------
 class Run:
     """A corpus run's table on fit.md (one row per file), its columns as the page prints

@@ -349,8 +349,14 @@ class DesignNLPOptions:
     #: by row name (:func:`~pdw_casadi.nlp.multipliers.map_multipliers`), with IPOPT's
     #: warm options (:data:`~pdw_casadi.nlp.multipliers.WARM_IPOPT`); False (the default:
     #: warm, the 30 % design's homotopy was rejected at 18.9 and 14.1 %, which it passes
-    #: cold; docs/results/prosthesis.md): every step cold
+    #: cold; at every fifth sample, with ``near_start`` and ``step_tol``, it took 234.5 s
+    #: against 429 s but ended on another design, its least-change objective 0.271 against
+    #: 0.253; docs/results/prosthesis.md): every step cold
     warm_start: bool = False
+    #: with ``warm_start``: a warm solve that is not accepted is tried again cold at the
+    #: same mass before the homotopy halves its step (the warm start is an accelerator; the
+    #: cold solve is the reference)
+    warm_retry_cold: bool = True
     #: a cold step (no multipliers) starts IPOPT near its starting point, the last answer:
     #: a small barrier and small bound pushes (:data:`~pdw_casadi.nlp.driver.NEAR_START_IPOPT`).
     #: Measured on the 30 % design with ``step_tol``: the first step 10 iterations against
@@ -431,6 +437,8 @@ class DesignSolve:
     #: the iteration whose iterate is the answer when the solve stopped short
     #: (DesignNLPOptions.keep_best_feasible; None: IPOPT's own answer)
     fallback_iteration: int | None = None
+    #: started from the last accepted step's multipliers (DesignNLPOptions.warm_start)
+    warm: bool = False
 
     @property
     def answered_with(self) -> str:
@@ -693,32 +701,40 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         solver = ProsthesisDesignSolver(nlp, (*keys, *adapt, *dist), sound, opts, pinned,
                                     log=log, bounds=dist_bounds)
         warm = solver.warm_from(last) if last is not None and opts.warm_start else None
-        out = solver.solve(nlp.w0, warm, stepping_stone=level < lighter and not stopped)
-        if opts.diagnose:
-            _log_diagnosis(solver, out, log)
-        u = nlp.unpack(out["w"])
-        fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=FIXED_POINT_TOL,
-                                     fallback=False, smap=nlp.stride_map)
-        report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
-            if fp.converged else None
-        solves.append(DesignSolve(
-            level, out["status"], out["iterations"], out["wall_time_s"], out["radius"],
-            fp.spectral_radius if fp.converged else math.nan,
-            report["step_length_asymmetry_pct"] if report else math.nan,
-            report["step_time_asymmetry_pct"] if report else math.nan,
-            fp.valid if fp.converged else None, solver.binding(out, top=20),
-            fallback_iteration=out["fallback_iteration"]))
-        verified = opts.verified(fp, report)
-        good = verified and (out["success"] or opts.accept_verified)
-        solves[-1].accepted = good
-        kept = solves[-1].answered_with and f", {solves[-1].answered_with}"
-        log(f"{100 * level:g} % lighter: {out['status']} after {out['iterations']} "
-            f"iterations ({out['wall_time_s']:.1f} s){kept}; NLP {solver.row_label} "
-            f"{out['radius']:.4f}, "
-            f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "
-            f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
-            f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
-            f"{'accepted' if good else 'rejected'}")
+        # a warm solve that is not accepted is tried again cold at the same level
+        # (warm_retry_cold) before the step is halved
+        tries = [warm, None] if warm is not None and opts.warm_retry_cold else [warm]
+        for attempt in tries:
+            out = solver.solve(nlp.w0, attempt, stepping_stone=level < lighter and not stopped)
+            if opts.diagnose:
+                _log_diagnosis(solver, out, log)
+            u = nlp.unpack(out["w"])
+            fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"],
+                                         tol=FIXED_POINT_TOL, fallback=False,
+                                         smap=nlp.stride_map)
+            report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
+                if fp.converged else None
+            solves.append(DesignSolve(
+                level, out["status"], out["iterations"], out["wall_time_s"], out["radius"],
+                fp.spectral_radius if fp.converged else math.nan,
+                report["step_length_asymmetry_pct"] if report else math.nan,
+                report["step_time_asymmetry_pct"] if report else math.nan,
+                fp.valid if fp.converged else None, solver.binding(out, top=20),
+                fallback_iteration=out["fallback_iteration"], warm=attempt is not None))
+            verified = opts.verified(fp, report)
+            good = verified and (out["success"] or opts.accept_verified)
+            solves[-1].accepted = good
+            kept = solves[-1].answered_with and f", {solves[-1].answered_with}"
+            log(f"{100 * level:g} % lighter{' (warm)' if attempt is not None else ''}: "
+                f"{out['status']} after {out['iterations']} "
+                f"iterations ({out['wall_time_s']:.1f} s){kept}; NLP {solver.row_label} "
+                f"{out['radius']:.4f}, "
+                f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "
+                f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
+                f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
+                f"{'accepted' if good else 'rejected'}")
+            if good or len(solves) >= opts.max_solves:
+                break
         step = homotopy_step_after(step, level - done, stopped, good, opts.max_step)
         if not good:
             if step < opts.min_step:
