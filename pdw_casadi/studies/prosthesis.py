@@ -635,6 +635,38 @@ def _log_diagnosis(solver: ProsthesisDesignSolver, out: dict, log) -> None:
             f"{d['active']} active, violation {max(d['violation'], 0.0):.2g}")
 
 
+def _design_solve(solver: ProsthesisDesignSolver, target: Problem, level: float, warm,
+                  stepping_stone: bool, log) -> tuple[dict, object, DesignSolve]:
+    """One solve of a homotopy step at the mass reduction ``level`` (-) of ``target``, from
+    ``warm`` multipliers or cold, and its verdict on the simulator: IPOPT's answer, the
+    stride fixed point near it, and the :class:`DesignSolve` (accepted or not), logged."""
+    opts, nlp = solver.opts, solver.nlp
+    out = solver.solve(nlp.w0, warm, stepping_stone=stepping_stone)
+    if opts.diagnose:
+        _log_diagnosis(solver, out, log)
+    u = nlp.unpack(out["w"])
+    fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"], tol=FIXED_POINT_TOL,
+                                 fallback=False, smap=nlp.stride_map)
+    report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
+        if fp.converged else None
+    sv = DesignSolve(
+        level, out["status"], out["iterations"], out["wall_time_s"], out["radius"],
+        fp.spectral_radius if fp.converged else math.nan,
+        report["step_length_asymmetry_pct"] if report else math.nan,
+        report["step_time_asymmetry_pct"] if report else math.nan,
+        fp.valid if fp.converged else None, solver.binding(out, top=20),
+        fallback_iteration=out["fallback_iteration"], warm=warm is not None)
+    sv.accepted = opts.verified(fp, report) and (out["success"] or opts.accept_verified)
+    kept = sv.answered_with and f", {sv.answered_with}"
+    log(f"{100 * level:g} % lighter{' (warm)' if warm is not None else ''}: "
+        f"{out['status']} after {out['iterations']} iterations ({out['wall_time_s']:.1f} s)"
+        f"{kept}; NLP {solver.row_label} {out['radius']:.4f}, re-simulated stride radius "
+        f"{sv.stride_radius:.4f}, asymmetry length/time {sv.step_length_asymmetry_pct:.3f} / "
+        f"{sv.step_time_asymmetry_pct:.3f} %, valid {sv.valid}: "
+        f"{'accepted' if sv.accepted else 'rejected'}")
+    return out, fp, sv
+
+
 def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
                           side: str = "right", free: Sequence[str] = NLP_FREE,
                           options: DesignNLPOptions | None = None,
@@ -705,34 +737,10 @@ def design_prosthesis_nlp(problem: Problem, x0=None, lighter: float = 0.3,
         # (warm_retry_cold) before the step is halved
         tries = [warm, None] if warm is not None and opts.warm_retry_cold else [warm]
         for attempt in tries:
-            out = solver.solve(nlp.w0, attempt, stepping_stone=level < lighter and not stopped)
-            if opts.diagnose:
-                _log_diagnosis(solver, out, log)
-            u = nlp.unpack(out["w"])
-            fp = find_stride_fixed_point(target, x0=u["xs"], theta=u["p"],
-                                         tol=FIXED_POINT_TOL, fallback=False,
-                                         smap=nlp.stride_map)
-            report = stride_report(nlp.stride_map, fp.state, fp.parameters, curves=False) \
-                if fp.converged else None
-            solves.append(DesignSolve(
-                level, out["status"], out["iterations"], out["wall_time_s"], out["radius"],
-                fp.spectral_radius if fp.converged else math.nan,
-                report["step_length_asymmetry_pct"] if report else math.nan,
-                report["step_time_asymmetry_pct"] if report else math.nan,
-                fp.valid if fp.converged else None, solver.binding(out, top=20),
-                fallback_iteration=out["fallback_iteration"], warm=attempt is not None))
-            verified = opts.verified(fp, report)
-            good = verified and (out["success"] or opts.accept_verified)
-            solves[-1].accepted = good
-            kept = solves[-1].answered_with and f", {solves[-1].answered_with}"
-            log(f"{100 * level:g} % lighter{' (warm)' if attempt is not None else ''}: "
-                f"{out['status']} after {out['iterations']} "
-                f"iterations ({out['wall_time_s']:.1f} s){kept}; NLP {solver.row_label} "
-                f"{out['radius']:.4f}, "
-                f"re-simulated stride radius {solves[-1].stride_radius:.4f}, asymmetry "
-                f"length/time {solves[-1].step_length_asymmetry_pct:.3f} / "
-                f"{solves[-1].step_time_asymmetry_pct:.3f} %, valid {solves[-1].valid}: "
-                f"{'accepted' if good else 'rejected'}")
+            out, fp, sv = _design_solve(solver, target, level, attempt,
+                                        level < lighter and not stopped, log)
+            solves.append(sv)
+            good = sv.accepted
             if good or len(solves) >= opts.max_solves:
                 break
         step = homotopy_step_after(step, level - done, stopped, good, opts.max_step)

@@ -1,5 +1,6 @@
-"""Seek a walker's periodic gait from human curves: a prescribed gait pattern, its kinematic
-guess, and the fit's NLP on it (an experiment towards ``pdw-fixed-point --seek``).
+"""Benchmark seeking a walker's periodic gait from human curves: a prescribed gait pattern,
+its kinematic guess, and the fit's NLP on it, timed (an experiment towards
+``pdw-fixed-point --seek``).
 
 The pattern is given phase by phase as PHASE:DURATION_S:GUARD (the guard that ends the
 phase); the guess (:func:`pdw_casadi.gait.kinematic.kinematic_guess`) follows the curves'
@@ -10,7 +11,7 @@ free, by default without the stability row) is solved from it. Printed: the patt
 solve's progress every ``--every`` iterations, its status, and, if the answer is nearly
 periodic, the simulator's fixed point near it (spectral radius, valid).
 
-    python scripts/seek_gait.py --problem humanlike_6link --gait female_fast.csv \\
+    python scripts/bench_seek.py --problem humanlike_6link --gait female_fast.csv \\
         --phase I:0.06:toe_off --phase II:0.55:heel_strike --phase III:0.06:foot_strike
 """
 
