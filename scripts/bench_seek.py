@@ -51,10 +51,17 @@ def main(argv=None) -> int:
     ap.add_argument("--gait", default="female_fast.csv")
     ap.add_argument("--phase", type=phase_arg, action="append", required=True)
     ap.add_argument("--every", type=int, default=10, help="print every N-th iteration")
+    ap.add_argument("--validity", action="append", default=[], metavar="KEY=VALUE",
+                    help="a validity margin of the solve (e.g. min_normal_force=-1e4, N: the "
+                         "margins relaxed, a first stage)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="a FitOptions field (VALUE as JSON)")
     args = ap.parse_args(argv)
     pb = load_problem(args.problem)
+    if args.validity:
+        relaxed = {k: float(v) for k, _, v in (item.partition("=") for item in args.validity)}
+        pb = pb.replace(validity={**pb.validity, **relaxed})
+        print(f"validity margins: {dict(pb.validity)}")
     sim = Simulator(pb)
     hs, p = sim.hs, pb.parameter_vector()
     human = load_gait_curves(args.gait)
