@@ -18,7 +18,7 @@ import casadi as ca
 import numpy as np
 
 from pdw_casadi.engine.errors import CurveError
-from pdw_casadi.gait.curves import cycle_time
+from pdw_casadi.gait.curves import CURVE_TARGETS, cycle_time
 from pdw_casadi.model.gait_data import CYCLE_POINTS
 
 #: two samples of one part further apart than this many times its median sample spacing do
@@ -27,7 +27,7 @@ from pdw_casadi.model.gait_data import CYCLE_POINTS
 GAP_FACTOR = 3.0
 
 #: fit target -> (model output stem, human column)
-TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"), "thigh": ("thigh", "thigh_deg")}
+TARGETS = CURVE_TARGETS
 
 
 class CurveRows(NamedTuple):

@@ -27,6 +27,12 @@ def r_squared(model, human) -> float:
     return 1.0 - ss_res / ss_tot
 
 
+#: the curves a walker is compared with: target -> (the walker's output stem, whose outputs
+#: are ``<stem>1_deg`` and ``<stem>2_deg``, and the human curves' attribute, deg)
+CURVE_TARGETS = {"knee": ("knee", "knee_deg"), "hip": ("hip", "hip_deg"),
+                 "thigh": ("thigh", "thigh_deg")}
+
+
 def cycle_time(t, leg: int, T, t_hs=None, after_hs: bool = True):
     """Time (s) since the gait cycle's start of leg ``leg``'s sample at time ``t`` (s) into a
     step lasting ``T`` (numpy or CasADi). ``t_hs``: the swing leg's heel strike in the step

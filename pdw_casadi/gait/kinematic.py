@@ -37,12 +37,13 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from pdw_casadi.gait.curves import cycle_time
+from pdw_casadi.gait.curves import CURVE_TARGETS, cycle_time
 
 #: the largest violation (m, rad) of a posture's contact and guard rows
 POSTURE_TOL = 1e-10
-#: the joint angles the postures follow: model output stem -> the curves' attribute (deg)
-GUESS_TARGETS = {"knee": "knee_deg", "thigh": "thigh_deg"}
+#: the curves the postures follow (:data:`~pdw_casadi.gait.curves.CURVE_TARGETS`): knee and
+#: thigh, both legs' segment angles whichever the walker's hip convention
+GUESS_TARGETS = ("knee", "thigh")
 
 
 @dataclass(frozen=True)
@@ -62,8 +63,11 @@ class KinematicGuess:
     contact rows and their Jacobian, and the small NLP of one posture (built once per phase
     and ending guard, solved at every instant)."""
 
-    def __init__(self, hs, targets: Sequence[str] = tuple(GUESS_TARGETS), pull: float = 1e-2):
+    def __init__(self, hs, targets: Sequence[str] = GUESS_TARGETS, pull: float = 1e-2):
         self.hs, self.model = hs, hs.model
+        unknown = [t for t in targets if t not in CURVE_TARGETS]
+        if unknown:
+            raise ValueError(f"unknown target {unknown[0]!r} (one of {', '.join(CURVE_TARGETS)})")
         self.targets, self.pull = tuple(targets), float(pull)
         sysm = self.model.system
         self.q, self.p = sysm.q, self.model.p
@@ -82,7 +86,7 @@ class KinematicGuess:
     def _angles(self, phase: str) -> tuple[ca.SX, list[str]]:
         """The targets' output expressions (deg) of both legs in q (x with qd = 0, W = 0)."""
         names = self.hs.output_names[phase]
-        want = [f"{stem}{leg}_deg" for stem in self.targets for leg in (1, 2)]
+        want = [f"{CURVE_TARGETS[t][0]}{leg}_deg" for t in self.targets for leg in (1, 2)]
         missing = [n for n in want if n not in names]
         if missing:
             raise ValueError(f"walker {self.model.name!r} has no outputs {missing} in phase "
@@ -154,7 +158,7 @@ class KinematicGuess:
 
 
 def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
-                    targets: Sequence[str] = tuple(GUESS_TARGETS), pull: float = 1e-2,
+                    targets: Sequence[str] = GUESS_TARGETS, pull: float = 1e-2,
                     kg: KinematicGuess | None = None) -> list[np.ndarray]:
     """The full states (nx x n_nodes per phase, SI) of one step of the walker ``hs`` with
     parameters ``p`` along the prescribed ``phases`` (module docstring), following the
@@ -185,10 +189,10 @@ def kinematic_guess(hs, p, human, phases: Sequence[GuessPhase], q_start,
     cycle = np.asarray(human.cycle_pct, float)
     curves = {}
     for stem in kg.targets:
-        values = getattr(human, GUESS_TARGETS[stem], None)
+        column = CURVE_TARGETS[stem][1]
+        values = getattr(human, column, None)
         if values is None:
-            raise ValueError(f"the gait curves have no {GUESS_TARGETS[stem]} (a target of "
-                             f"the guess)")
+            raise ValueError(f"the gait curves have no {column} (a target of the guess)")
         curves[stem] = np.asarray(values, float)
 
     def target(t: float, after_hs: bool) -> np.ndarray:

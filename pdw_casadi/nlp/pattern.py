@@ -29,7 +29,7 @@ FINE_RATE_HZ = 500.0
 
 
 def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: float,
-                       n_sub: int = N_SUB, targets: Sequence[str] = tuple(GUESS_TARGETS)
+                       n_sub: int = N_SUB, targets: Sequence[str] = GUESS_TARGETS
                        ) -> tuple[list[SegmentSpec], list[np.ndarray]]:
     """The segments and their nodes (nx x (n_int + 1), SI) of one step of the walker ``hs``
     (parameters ``p``) along the prescribed ``phases`` (each ended by its ``guard``, whose
