@@ -51,7 +51,8 @@ def main(argv=None) -> int:
                                **parse_set(args.set, DesignNLPOptions))
     print(f"load average {os.getloadavg()[0]:.2f} before the run")
     t0 = time.perf_counter()
-    res = design_prosthesis_nlp(atlas_problem(), lighter=args.lighter, options=options,
+    atlas = atlas_problem()
+    res = design_prosthesis_nlp(atlas, lighter=args.lighter, options=options,
                                 log=None)
     wall = time.perf_counter() - t0
     print("| % lighter | start | status | iterations | answer | IPOPT s | stride radius | "
@@ -67,8 +68,8 @@ def main(argv=None) -> int:
     print(f"whole design {wall:.1f} s (goal <= {GOAL_S:g} s warm), {len(res.solves)} solves, "
           f"{sum(s.iterations for s in res.solves)} iterations; reached {reached:.2f} % "
           f"lighter; verdict {res.reached}; stride radius {res.fixed_point.spectral_radius:.4f}")
-    start = dict(zip(physical_parameter_names(atlas_problem()),
-                     physical_parameter_vector(atlas_problem()), strict=True))
+    start = dict(zip(physical_parameter_names(atlas), physical_parameter_vector(atlas),
+                     strict=True))
 
     def least_change(values: dict) -> float:
         """The design's objective: squared relative changes from the start's compliance

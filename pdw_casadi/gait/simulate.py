@@ -383,11 +383,7 @@ class Simulator:
                         return PhaseEnd(x_e, mode, t, ev, ev.require_reason or f"{ev.name}_invalid")
                 return PhaseEnd(x_e, mode, t, ev)
             # SWITCH: new mode, continue the phase from the event state
-            if ev.indicator:
-                mode = {**mode, ev.indicator: 1.0 if sign > 0 else 0.0}
-            if ev.effect is not None:
-                mode = ev.effect(mode, sign)
-            mode = hs.refresh_indicators(phase, x_e, p, mode, skip=idx)
+            mode = hs.mode_after_switch(phase, idx, sign, x_e, p, mode)
             new_mv = hs.mode_vector(mode)
             run.spring_loss += self._spring(x_e, p, mv) - self._spring(x_e, p, new_mv)
             run.switches.append((phase, ev.name, t0 + t))
@@ -561,14 +557,13 @@ class Simulator:
         if bad:
             return x_end, mode, Failure(f"{tr.name}:{bad[0]}", sr.index, t, phase,
                                         "impulse or post-impact velocity of the wrong sign")
-        new_mode = tr.mode_after(mode) if tr.mode_after else mode
-        if isinstance(new_mode, str):
-            return x_end, mode, Failure(new_mode, sr.index, t, phase,
-                                        "mode rule broken at " + tr.name)
         # the phase entered belongs to the next step when the impact ends this one
         # (a per-leg walker: the legs' parameters swap roles there)
         p_enter = st.p_next if tr.ends_step else p
-        new_mode = hs.refresh_indicators(tr.target, x_plus, p_enter, new_mode)
+        new_mode = hs.mode_after_transition(tr, x_plus, p_enter, mode)
+        if isinstance(new_mode, str):
+            return x_end, mode, Failure(new_mode, sr.index, t, phase,
+                                        "mode rule broken at " + tr.name)
         sr.plan.items[at] = TransitionItem(tr.name, tuple(hs.mode_vector(new_mode)))
         self._guards_ahead(tr, x_plus, p_enter, new_mode, st.margins)
         st.run.spring_loss += ke.spring - self._spring(x_plus, p, hs.mode_vector(new_mode))

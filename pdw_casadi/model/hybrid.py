@@ -441,6 +441,28 @@ class HybridSystem:
     def mode_vector(self, mode: Mode) -> list[float]:
         return [float(mode[k]) for k in self.mode_keys]
 
+    def mode_after_switch(self, phase: str, idx: int, sign: float, x, p, mode: Mode) -> Mode:
+        """The walker's mode after the switch event ``idx`` of ``phase`` crossed in the
+        direction ``sign`` (+1 upwards, -1 downwards) at the state ``x`` (SI): its flag from
+        the crossing direction, its effect, the other flags read from the state. One rule
+        for the simulator and for a pattern read off a guess (:mod:`pdw_casadi.nlp.pattern`)."""
+        ev = self.event_list[phase][idx]
+        if ev.indicator:
+            mode = {**mode, ev.indicator: 1.0 if sign > 0 else 0.0}
+        if ev.effect is not None:
+            mode = ev.effect(mode, sign)
+        return self.refresh_indicators(phase, x, p, mode, skip=idx)
+
+    def mode_after_transition(self, tr: Transition, x_plus, p, mode: Mode) -> Mode | str:
+        """The walker's mode in the phase that the transition ``tr`` enters, at its state
+        ``x_plus`` (SI, after the impact) with the parameters ``p`` of that phase: the
+        transition's mode rule, then the flags read from the state; or the rule's failure
+        reason (a string)."""
+        new = tr.mode_after(mode) if tr.mode_after else mode
+        if isinstance(new, str):
+            return new
+        return self.refresh_indicators(tr.target, x_plus, p, new)
+
     def refresh_indicators(self, phase: str, x, p, mode: Mode, skip: int | None = None) -> Mode:
         """Mode flags that mirror the sign of an event function, read from the state.
 

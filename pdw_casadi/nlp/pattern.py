@@ -49,7 +49,7 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
     mode = dict(model.initial_mode)
     mode = hs.refresh_indicators(phases[0].phase, guess[0][:, 0], p, mode)
     cuts: list[tuple[str, tuple, int, str | None, float]] = []
-    for k, (ph, X) in enumerate(zip(fine, guess, strict=True)):
+    for ph, X in zip(fine, guess, strict=True):
         evs = hs.event_list[ph.phase]
         ts = np.linspace(0.0, ph.duration, ph.n_nodes)
         t_seg = 0.0
@@ -75,23 +75,17 @@ def pattern_from_guess(hs, p, human, phases: Sequence[GuessPhase], q_start, h: f
                 if t > t_seg:
                     cuts.append((ph.phase, tuple(mv), i, None, t - t_seg))
                     t_seg = t
-                ev = evs[i]
-                sign = 1.0 if g[i] > 0 else -1.0
-                if ev.indicator:
-                    mode = {**mode, ev.indicator: 1.0 if sign > 0 else 0.0}
-                if ev.effect is not None:
-                    mode = ev.effect(mode, sign)
-                mode = hs.refresh_indicators(ph.phase, X[:, j], p, mode, skip=i)
+                mode = hs.mode_after_switch(ph.phase, i, 1.0 if g[i] > 0 else -1.0, X[:, j],
+                                            p, mode)
         tr = hs.transitions[(ph.phase, ph.guard)]
         i_guard = [e.name for e in evs].index(ph.guard)
         cuts.append((ph.phase, tuple(hs.mode_vector(mode)), i_guard, tr.name,
                      ph.duration - t_seg))
-        after = tr.mode_after(mode) if tr.mode_after else mode
-        if isinstance(after, str):
-            raise ValueError(f"the guess breaks the walker's mode rule at {tr.name}: {after}")
-        if k + 1 < len(fine):  # the flags read right after the impact, as the simulator does
-            x_plus = np.asarray(hs.impact_at(tr.name, X[:, -1], p).x_plus, float).ravel()
-            mode = hs.refresh_indicators(tr.target, x_plus, p, after)
+        # the flags read right after the impact, as the simulator does
+        x_plus = np.asarray(hs.impact_at(tr.name, X[:, -1], p).x_plus, float).ravel()
+        mode = hs.mode_after_transition(tr, x_plus, p, mode)
+        if isinstance(mode, str):
+            raise ValueError(f"the guess breaks the walker's mode rule at {tr.name}: {mode}")
     # the guess again, at each segment's shooting nodes
     specs, layout = [], []
     for phase, mv, event, transition, duration in cuts:
